@@ -1,0 +1,35 @@
+# Two commands do all the set-up on a fresh machine with Python 3.11 and make:
+#   make run   - create .venv if missing, install, run the paper scenario into out/
+#   make test  - the test suite (what CI runs)
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+TWIN   := $(VENV)/bin/twin
+STAMP  := $(VENV)/.installed
+
+.PHONY: run test install bench clean
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+
+# torch first, pinned to the CPU wheel this machine has: an unpinned torch pulls GBs of CUDA.
+$(STAMP): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet torch==2.13.0
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+run: $(STAMP)
+	mkdir -p out
+	$(TWIN) run scenarios/paper_iis328dq.yaml -o out/paper.h5 --json out/paper.json
+	$(TWIN) test-design --json out/test_design.json
+
+test: $(STAMP)
+	$(PY) -m pytest -q
+
+bench: $(STAMP)
+	$(PY) benchmarks/bench_simulate.py --json out/bench_simulate.json
+
+clean:
+	rm -rf out .pytest_cache
