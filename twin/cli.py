@@ -1,0 +1,153 @@
+"""The ``twin`` command line.
+
+Conventions for every subcommand: ``--json PATH`` writes the machine-readable result (``-`` for
+stdout); bad input exits with status 2 and one line naming what and where, never a traceback.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from twin.errors import TwinError
+
+app = typer.Typer(
+    name="twin",
+    help="Digital twin of the temperature drift error (TDE) of MEMS accelerometers.",
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+)
+
+JsonOpt = Annotated[Optional[str], typer.Option("--json", help="write the result as JSON to PATH ('-' for stdout)")]
+
+
+def _fail(message: str) -> None:
+    typer.echo(f"twin: error: {message}", err=True)
+    raise typer.Exit(2)
+
+
+def _emit_json(result: dict, dest: str | None) -> None:
+    """Write ``result`` to ``dest`` atomically ('-' = stdout)."""
+    if dest is None:
+        return
+    text = json.dumps(result, indent=2, default=float) + "\n"
+    if dest == "-":
+        sys.stdout.write(text)
+        return
+    from twin.io import atomic_write_text
+
+    atomic_write_text(Path(dest), text)
+
+
+def _version(value: bool) -> None:
+    if value:
+        from twin import __version__
+
+        typer.echo(f"twin {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True, help="print the version")] = False,
+) -> None:
+    """Digital twin of the temperature drift error (TDE) of MEMS accelerometers."""
+
+
+@app.command()
+def run(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML")],
+    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="HDF5 file to write")] = None,
+    seed: Annotated[Optional[int], typer.Option("--seed", min=0, help="override the scenario's seed")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
+    json_out: JsonOpt = None,
+) -> None:
+    """Simulate a chamber test and write the dataset (HDF5) with its ground truth."""
+    from tqdm import tqdm
+
+    from twin.dataset import write_hdf5
+    from twin.scenario import load_scenario
+    from twin.simulate import STAGES, simulate, summary
+
+    try:
+        loaded = load_scenario(scenario)
+        out = output or (Path(loaded.scenario.output.path) if loaded.scenario.output.path else scenario.with_suffix(".h5"))
+        # tqdm disables itself when stderr is not a terminal (logs, CI).
+        with tqdm(total=len(STAGES) + 1, desc="simulate", unit="stage", disable=True if quiet else None,
+                  leave=False, file=sys.stderr) as bar:
+            def tick(stage: str) -> None:
+                bar.set_description(stage)
+                bar.update(0 if bar.n == 0 and stage == STAGES[0] else 1)
+
+            ds = simulate(loaded, seed=seed, progress=tick)
+            bar.set_description("write HDF5")
+            bar.update(1)
+            write_hdf5(ds, out, compression=loaded.scenario.output.compression)
+            bar.update(1)
+    except TwinError as exc:
+        _fail(str(exc))
+    except OSError as exc:
+        _fail(f"cannot write {out}: {exc.strerror or exc}")
+    result = {"output": str(out), **summary(ds)}
+    if not quiet and json_out != "-":
+        typer.echo(
+            f"wrote {out}: {result['samples']} samples, {result['duration_h']:.2f} h, die "
+            f"{result['die_range_c'][0]:.1f}..{result['die_range_c'][1]:.1f} °C, drift "
+            f"{result['drift_range_mg'][0]:.2f}..{result['drift_range_mg'][1]:.2f} mg, white noise "
+            f"{result['white_noise_sigma_mg']:.3f} mg"
+        )
+    _emit_json(result, json_out)
+
+
+@app.command()
+def schema(
+    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="write the schema here")] = None,
+    json_out: JsonOpt = None,
+) -> None:
+    """Print the JSON Schema of scenario files (for editors)."""
+    from twin.scenario import json_schema
+
+    s = json_schema()
+    if output is not None:
+        from twin.io import atomic_write_text
+
+        atomic_write_text(output, json.dumps(s, indent=2) + "\n")
+    elif json_out is None:
+        typer.echo(json.dumps(s, indent=2))
+    _emit_json(s, json_out)
+
+
+@app.command("test-design")
+def test_design(
+    lsb_mg: Annotated[float, typer.Option(min=0, help="sensitivity, 1 LSB [mg]")] = 0.98,
+    tcoff_mg_per_c: Annotated[float, typer.Option(min=0, help="|TCOff| [mg/°C]")] = 0.8,
+    tcso_pct_per_c: Annotated[float, typer.Option(min=0, help="TCSo as printed in eq. (33) [%/°C]")] = 0.02,
+    chamber_length_m: Annotated[float, typer.Option(min=0, help="chamber length L [m]")] = 0.6,
+    json_out: JsonOpt = None,
+) -> None:
+    """The paper's test-design numbers (eqs. 31-35) beside physically consistent time scales."""
+    from twin.paper import test_design_report
+
+    rows = test_design_report(lsb_mg, tcoff_mg_per_c, tcso_pct_per_c, chamber_length_m)
+    if json_out != "-":
+        for row in rows["items"]:
+            typer.echo(f"{row['name']:<44} {row['value']:>12.6g} {row['unit']:<8} {row['note']}")
+    _emit_json(rows, json_out)
+
+
+def main() -> None:
+    """Console entry point: usage errors and our errors exit 2 with one line."""
+    try:
+        app(standalone_mode=True)
+    except KeyboardInterrupt:
+        typer.echo("twin: interrupted", err=True)
+        sys.exit(130)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
