@@ -64,8 +64,9 @@ def simulate_network(
     *,
     method: str = "exact",
     theta: float = 1.0,
+    initial_c: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Response of ``C dT/dt = −G T + g u`` starting in equilibrium at ``u[0]``.
+    """Response of ``C dT/dt = −G T + g u``, by default starting in equilibrium at ``u[0]``.
 
     Parameters
     ----------
@@ -85,6 +86,8 @@ def simulate_network(
     method : {"exact", "theta"}
     theta : float
         θ of the θ-method (1 backward Euler, 0.5 Crank–Nicolson).
+    initial_c : (n,) array, optional
+        Node temperatures at ``t = 0`` [°C]; default: all equal to ``u[0]``.
 
     Returns
     -------
@@ -103,12 +106,14 @@ def simulate_network(
     out_modes = np.asarray(outputs, float) @ (s[:, None] * Q)  # (m, n): node weights → modes
     u = np.asarray(u, float)
     du = u - u[0]
+    z0 = np.zeros(lam.size) if initial_c is None else Q.T @ (np.sqrt(c) * (np.asarray(initial_c, float) - u[0]))
     p, b1, b0 = _mode_coefficients(lam, dt_s, method, theta)
     y = np.zeros((u.size, out_modes.shape[0]))
     for i in range(lam.size):
-        if beta[i] == 0 or not np.any(out_modes[:, i]):
+        if (beta[i] == 0 and z0[i] == 0) or not np.any(out_modes[:, i]):
             continue
-        z = lfilter([beta[i] * b1[i], beta[i] * b0[i]], [1.0, -p[i]], du)
+        # Transposed direct form: y[0] = b1·du[0] + zi = z0 because du[0] = 0.
+        z, _ = lfilter([beta[i] * b1[i], beta[i] * b0[i]], [1.0, -p[i]], du, zi=[z0[i]])
         y += z[:, None] * out_modes[:, i][None, :]
     return y + u[0]
 

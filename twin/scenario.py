@@ -347,7 +347,10 @@ def _where(path: str, lines: dict[tuple, int], loc: tuple) -> str:
 
 
 def _validation_message(err: ValidationError, path: str, lines: dict[tuple, int]) -> str:
-    e = err.errors(include_url=False)[0]
+    # A misspelt key shows as "unknown" and "missing" at once; the unknown one, with its
+    # suggestion, is the message that helps.
+    order = {"extra_forbidden": 0, "union_tag_invalid": 1}
+    e = min(err.errors(include_url=False), key=lambda x: order.get(x["type"], 2))
     loc = tuple(e["loc"])
     parent, clean = _model_at(loc)
     key = _format_path(clean)
@@ -358,6 +361,12 @@ def _validation_message(err: ValidationError, path: str, lines: dict[tuple, int]
         close = difflib.get_close_matches(str(name), valid, n=1)
         hint = f"; did you mean {close[0]!r}?" if close else f"; valid keys: {', '.join(valid)}"
         return f"{where}: unknown key {name!r} at {_format_path(clean[:-1])}{hint}"
+    if e["type"] == "union_tag_invalid":
+        tags, tag = e["ctx"]["expected_tags"], e["ctx"]["tag"]
+        options = [t.strip(" '") for t in tags.split(",")]
+        close = difflib.get_close_matches(str(tag), options, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        return f"{where}: {key}.type: unknown step type {tag!r} (expected {tags}){hint}"
     if e["type"] == "missing":
         return f"{where}: missing required key {key!r}"
     msg = e["msg"]
