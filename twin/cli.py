@@ -131,9 +131,9 @@ def test_design(
     json_out: JsonOpt = None,
 ) -> None:
     """The paper's test-design numbers (eqs. 31-35) beside physically consistent time scales."""
-    from twin.paper import test_design_report
+    from twin.paper import design_report
 
-    rows = test_design_report(lsb_mg, tcoff_mg_per_c, tcso_pct_per_c, chamber_length_m)
+    rows = design_report(lsb_mg, tcoff_mg_per_c, tcso_pct_per_c, chamber_length_m)
     if json_out != "-":
         for row in rows["items"]:
             typer.echo(f"{row['name']:<44} {row['value']:>12.6g} {row['unit']:<8} {row['note']}")

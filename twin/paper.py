@@ -5,7 +5,7 @@ from __future__ import annotations
 from sim import calculators as calc
 
 
-def test_design_report(
+def design_report(
     lsb_mg: float = 0.98, tcoff_mg_per_c: float = 0.8, tcso_pct_per_c: float = 0.02, chamber_length_m: float = 0.6
 ) -> dict:
     """Eq. (33)-(35) as printed, and the physical time scales they should be read against.

@@ -1,0 +1,33 @@
+"""Shared fixtures: paths, a coarse version of any scenario, a CLI runner."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
+SHARED = ROOT.parent / "shared"
+
+
+def coarse_text(path: Path, rate_hz: float = 0.5, max_cycles: int = 1) -> str:
+    """The scenario at a coarse logger rate and at most ``max_cycles`` cycles (for fast tests)."""
+    data = yaml.safe_load(path.read_text())
+    data.setdefault("test_plan", {})["logger_rate_hz"] = rate_hz
+    data["program"]["cycles"] = min(data["program"].get("cycles", 1), max_cycles)
+    return yaml.safe_dump(data, sort_keys=False)
+
+
+def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    """Run ``twin`` as a user would (a fresh process)."""
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    return subprocess.run([sys.executable, "-m", "twin.cli", *args], capture_output=True, text=True,
+                          cwd=cwd or ROOT, env=env, timeout=300)
+
+
+@pytest.fixture(scope="session")
+def paper_path() -> Path:
+    return ROOT / "scenarios" / "paper_iis328dq.yaml"
