@@ -90,3 +90,42 @@ def test_jsonschema_validates_the_shipped_scenarios():
 
     for path in SCENARIOS:
         jsonschema.validate(yaml.safe_load(path.read_text()), json_schema())
+
+
+def _field_paths(model, prefix=""):
+    import typing
+
+    from pydantic import BaseModel
+
+    for name, field in model.model_fields.items():
+        yield prefix + name
+        for t in [field.annotation, *typing.get_args(field.annotation)]:
+            for tt in [t, *typing.get_args(t)]:
+                if isinstance(tt, type) and issubclass(tt, BaseModel):
+                    yield from _field_paths(tt, prefix + name + ".")
+
+
+def test_every_scenario_key_is_documented():
+    from conftest import ROOT
+    from twin.scenario import HoldStep, RampStep, Scenario, StaircaseStep
+
+    doc = (ROOT / "docs" / "scenario.md").read_text()
+    missing = []
+    for path in _field_paths(Scenario):
+        if ".layers." in path or ".orientations." in path:  # keys of list items: by leaf name
+            ok = f"`{path.split('.')[-1]}`" in doc
+        else:  # a key, or a section named by the keys under it
+            ok = f"`{path}`" in doc or f"`{path}." in doc
+        if not ok:
+            missing.append(path)
+    for step in (HoldStep, RampStep, StaircaseStep):
+        missing += [k for k in step.model_fields if f"`{k}`" not in doc]
+    assert not missing, missing
+
+
+def test_dataset_layout_is_documented():
+    from conftest import ROOT
+    from twin.dataset import LAYOUT
+
+    doc = (ROOT / "docs" / "dataset.md").read_text()
+    assert [p for p in LAYOUT if f"`{p}`" not in doc] == []
