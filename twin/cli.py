@@ -140,6 +140,95 @@ def test_design(
     _emit_json(rows, json_out)
 
 
+@app.command()
+def paper(json_out: JsonOpt = None) -> None:
+    """Each derived number of the paper next to what the code computes, with a verdict."""
+    from twin.paper import paper_report
+
+    report = paper_report()
+    if json_out != "-":
+        for it in report["items"]:
+            printed = "-" if it["paper"] is None else f"{it['paper']:.6g}" if isinstance(it["paper"], float) else str(it["paper"])
+            computed = f"{it['computed']:.6g}" if isinstance(it["computed"], float) else str(it["computed"])
+            typer.echo(f"{it['item']:<34} paper {printed:>10}  code {computed:>12} {it['unit']:<8} {it['verdict']}")
+        typer.echo(f"{report['reproduced']} reproduced, {report['differs']} differ, {report['computed']} computed (not in the paper)")
+    _emit_json(report, json_out)
+
+
+@app.command()
+def comb(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML (its device.geometry)")],
+    acceleration_g: Annotated[float, typer.Option("--acceleration-g", help="input acceleration [g]")] = 1.0,
+    t_low_c: Annotated[float, typer.Option(help="sweep start [°C]")] = -20.0,
+    t_high_c: Annotated[float, typer.Option(help="sweep end [°C]")] = 50.0,
+    json_out: JsonOpt = None,
+) -> None:
+    """Comb thermal drift under each reading (P, S, H, HE): offset and scale-factor parts."""
+    from twin.comb import comb_report
+    from twin.scenario import load_scenario
+
+    try:
+        loaded = load_scenario(scenario)
+        report = comb_report(loaded.geometry(), acceleration_g, t_low_c, t_high_c)
+    except (TwinError, ValueError) as exc:
+        _fail(str(exc))
+    if json_out != "-":
+        typer.echo(f"comb cell: C2 = {report['C2_fF']:.3f} fF, C1 = {report['C1_fF']:.3f} fF, "
+                   f"signal {report['signal_fF_per_g']:.4f} fF/g, du(1 g) = {report['du_1g_nm']:.1f} nm")
+        for r in report["readings"]:
+            typer.echo(f"  {r['reading']:<3} slope {r['slope_mg_per_c']:+.5f} mg/°C at {acceleration_g:g} g, "
+                       f"ends {r['drift_low_mg']:+.4f} / {r['drift_high_mg']:+.4f} mg, max offset {r['max_offset_mg']:.2g} mg  "
+                       f"({r['meaning']})")
+        typer.echo(f"  for scale: datasheet TCOff 0.8 mg/°C, TCSo 0.01 %/°C = {0.1 * acceleration_g:g} mg/°C at this input")
+    _emit_json(report, json_out)
+
+
+@app.command()
+def render(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML (its device.geometry)")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="PNG (one temperature) or GIF/MP4 (--sweep)")],
+    temperature: Annotated[float, typer.Option("--temperature", help="temperature [°C]")] = 50.0,
+    sweep: Annotated[Optional[str], typer.Option("--sweep", help="START:STOP:STEP in °C, e.g. -20:50:5")] = None,
+    exaggeration: Annotated[float, typer.Option("--exaggeration", min=0, help="displacement scale factor")] = 2000.0,
+    acceleration_g: Annotated[float, typer.Option("--acceleration-g", help="input acceleration [g]")] = 0.0,
+    reading: Annotated[str, typer.Option("--reading", help="thermal reading: P, S, H or HE")] = "S",
+    json_out: JsonOpt = None,
+) -> None:
+    """Off-screen image of the comb cell deformed at a temperature, or a sweep as GIF/MP4."""
+    from sim.microstructure import READINGS
+    from twin.scenario import load_scenario
+
+    try:
+        loaded = load_scenario(scenario)
+        if reading not in READINGS:
+            raise ValueError(f"--reading must be one of {', '.join(READINGS)}, got {reading!r}")
+        suffix = output.suffix.lower()
+        if sweep is None and suffix != ".png":
+            raise ValueError(f"-o {output}: a single image is written as .png (use --sweep for .gif/.mp4)")
+        if sweep is not None and suffix not in (".gif", ".mp4"):
+            raise ValueError(f"-o {output}: a sweep is written as .gif or .mp4")
+        from twin import render as rd
+
+        temps = rd.parse_sweep(sweep) if sweep is not None else None
+    except (TwinError, ValueError) as exc:
+        _fail(str(exc))
+    from tqdm import tqdm
+
+    geometry = loaded.geometry()
+    if temps is None:
+        rd.render_png(geometry, temperature, output, exaggeration=exaggeration, acceleration_g=acceleration_g, reading=reading)
+        result = {"output": str(output), "temperatures_c": [temperature], "frames": 1}
+    else:
+        with tqdm(total=len(temps), desc="render", unit="frame", leave=False, file=sys.stderr, disable=None) as bar:
+            rd.render_sweep(geometry, temps, output, exaggeration=exaggeration, acceleration_g=acceleration_g,
+                            reading=reading, progress=lambda t: bar.update(1))
+        result = {"output": str(output), "temperatures_c": [float(t) for t in temps], "frames": len(temps)}
+    result.update(exaggeration=exaggeration, reading=reading, acceleration_g=acceleration_g)
+    if json_out != "-":
+        typer.echo(f"wrote {output} ({result['frames']} frame{'s' if result['frames'] > 1 else ''})")
+    _emit_json(result, json_out)
+
+
 def main() -> None:
     """Console entry point: usage errors and our errors exit 2 with one line."""
     try:

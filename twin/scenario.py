@@ -247,6 +247,11 @@ class LoadedScenario:
     path: str
     program: prog.ChamberProgram
 
+    def geometry(self):
+        from sim.microstructure import CombGeometry
+
+        return CombGeometry(**self.scenario.device.geometry.model_dump())
+
     def sensor(self) -> IIS328DQ:
         s = self.scenario.device.sensor
         return IIS328DQ(s.full_scale_g, s.odr_hz, s.noise_density_ug_per_sqrt_hz, s.bias_instability_mg,
@@ -450,6 +455,12 @@ def _check_consistency(scenario: Scenario, path: str, lines: dict[tuple, int]) -
             f"{_where(path, lines, loc)}: chamber.thermometer.attached_to {c.thermometer.attached_to!r} is not a node "
             f"of the {c.model} model (nodes: {', '.join(nodes)}){hint}"
         )
+    from sim.microstructure import CombGeometry, GeometryError, check_gaps
+
+    try:
+        check_gaps(CombGeometry(**scenario.device.geometry.model_dump()), scenario.device.sensor.full_scale_g)
+    except GeometryError as exc:
+        raise ScenarioError(f"{_where(path, lines, ('device', 'geometry'))}: device.{exc}") from None
     tp = scenario.test_plan
     if tp.logger_rate_hz > scenario.device.sensor.odr_hz:
         raise ScenarioError(
