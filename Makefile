@@ -24,12 +24,17 @@ run: $(STAMP)
 	mkdir -p out
 	$(TWIN) run scenarios/paper_iis328dq.yaml -o out/paper.h5 --json out/paper.json
 	$(TWIN) test-design --json out/test_design.json
+	$(TWIN) paper --json out/paper_numbers.json
+	$(TWIN) comb scenarios/paper_iis328dq.yaml --json out/comb.json
+	$(TWIN) render scenarios/paper_iis328dq.yaml --temperature 50 --exaggeration 2000 -o out/comb_50C.png
+	$(TWIN) render scenarios/paper_iis328dq.yaml --sweep -20:50:5 --exaggeration 2000 -o out/comb_sweep.gif
 
 test: $(STAMP)
 	$(PY) -m pytest -q
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_simulate.py --json out/bench_simulate.json
+	$(PY) benchmarks/bench_render.py --json out/bench_render.json
 
 clean:
 	rm -rf out .pytest_cache
