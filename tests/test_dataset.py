@@ -32,7 +32,7 @@ def test_same_seed_identical_other_seed_noise_only(paper_coarse):
 
 def test_output_decomposes_into_truth(paper_coarse):
     ds = simulate(paper_coarse)
-    recon = (ds["test/applied_g"] + ds["truth/drift_g"] + ds["truth/noise_white_g"]
+    recon = (ds["test/applied_g"] + ds["truth/drift_g"] + ds["truth/turn_on_bias_g"] + ds["truth/noise_white_g"]
              + ds["truth/noise_bias_instability_g"] + ds["truth/quantisation_g"])
     np.testing.assert_allclose(ds["output/output_g"], recon, atol=1e-12)
     effects = sum(ds[f"truth/effects/{n}_g"] for n in ds.effect_names)

@@ -156,6 +156,7 @@ class SensorSection(_Section):
     bias_instability_mg: NonNegativeFloat = Field(0.05, description="Gauss–Markov σ; typical, not datasheet")
     bias_instability_tau_s: PositiveFloat = 300.0
     zero_g_offset_mg: float = Field(0.0, description="zero-g offset at the reference temperature [mg]")
+    turn_on_bias_mg: NonNegativeFloat = Field(0.0, description="σ of a bias drawn afresh at each run's start [mg]")
 
 
 class GeometrySection(_Section):
@@ -193,12 +194,34 @@ class OrientationSection(_Section):
     applied_g: float = Field(description="acceleration along the sensing axis from then on [g]")
 
 
+class TumbleSection(_Section):
+    """Orientation blocks repeated through each run (+1 g, −1 g, 0 g tumble)."""
+
+    block_s: PositiveFloat = Field(description="time in each orientation [s]")
+    applied_g: list[float] = Field(min_length=1, description="the cycle of orientations [g]")
+
+
 class TestPlanSection(_Section):
     logger_rate_hz: PositiveFloat = 10.0
     logger_mode: Literal["latest", "average"] = "latest"
     orientations: list[OrientationSection] = Field(default_factory=lambda: [OrientationSection(at_s=0.0, applied_g=1.0)])
     power_on_s: list[NonNegativeFloat] = Field(default_factory=lambda: [0.0], description="power-on times in each run [s]")
     runs: int = Field(1, ge=1, description="independent runs of the program (same device, new noise)")
+    tumble: TumbleSection | None = Field(None, description="cyclic orientation blocks, instead of orientations")
+
+    @model_validator(mode="after")
+    def _one_orientation_source(self) -> TestPlanSection:
+        if self.tumble is not None and "orientations" in self.model_fields_set:
+            raise ValueError("give either orientations or tumble, not both")
+        return self
+
+    def orientation_schedule(self, duration_s: float) -> tuple[list[float], list[float]]:
+        """(at_s, applied_g) of the orientation steps in one run."""
+        if self.tumble is None:
+            return [o.at_s for o in self.orientations], [o.applied_g for o in self.orientations]
+        n = int(duration_s // self.tumble.block_s) + 1
+        values = self.tumble.applied_g
+        return [k * self.tumble.block_s for k in range(n)], [values[k % len(values)] for k in range(n)]
 
     @field_validator("orientations")
     @classmethod
@@ -214,6 +237,9 @@ class TestPlanSection(_Section):
 class TwinSection(_Section):
     effects: list[str] = Field(default_factory=lambda: ["static_bias_tc", "scale_factor_tc"],
                                description="effects the twin's model assumes")
+    plugins: list[str] = Field(default_factory=list,
+                               description="user effect modules: .py paths (relative to the scenario) or module names; "
+                                           "loading one runs its code")
 
 
 class OutputSection(_Section):
@@ -251,6 +277,21 @@ class LoadedScenario:
         from sim.microstructure import CombGeometry
 
         return CombGeometry(**self.scenario.device.geometry.model_dump())
+
+    def device_composition(self):
+        """The effects the simulated device truly has."""
+        from twin.effects import Composition, get_effect
+
+        ctx = {"geometry": self.geometry()}
+        return Composition([get_effect(n)(ctx, **(p or {})) for n, p in self.scenario.device.effects.items()])
+
+    def twin_composition(self, values: dict[str, dict[str, float]] | None = None):
+        """The effects the twin's model assumes (``twin.effects``), at defaults or ``values``."""
+        from twin.effects import Composition, get_effect
+
+        ctx = {"geometry": self.geometry()}
+        values = values or {}
+        return Composition([get_effect(n)(ctx, **values.get(n, {})) for n in self.scenario.twin.effects])
 
     def sensor(self) -> IIS328DQ:
         s = self.scenario.device.sensor
@@ -397,6 +438,7 @@ def parse_scenario(text: str, path: str = "<string>") -> LoadedScenario:
     except ValidationError as exc:
         raise ScenarioError(_validation_message(exc, path, lines)) from None
     program = _compile_program(scenario, path, lines)
+    _load_plugins(scenario, path, lines)
     _check_consistency(scenario, path, lines)
     return LoadedScenario(scenario, text, path, program)
 
@@ -430,6 +472,17 @@ def _compile_program(scenario: Scenario, path: str, lines: dict[tuple, int]) -> 
         raise ScenarioError(f"{_where(path, lines, loc)}: program.{exc}") from None
 
 
+def _load_plugins(scenario: Scenario, path: str, lines: dict[tuple, int]) -> None:
+    from twin.effects import load_plugin
+
+    base = Path(path).parent if path and not path.startswith("<") else Path(".")
+    for i, spec in enumerate(scenario.twin.plugins):
+        try:
+            load_plugin(spec, base)
+        except ModelError as exc:
+            raise ScenarioError(f"{_where(path, lines, ('twin', 'plugins', i))}: twin.plugins[{i}]: {exc}") from None
+
+
 def _check_consistency(scenario: Scenario, path: str, lines: dict[tuple, int]) -> None:
     """Cross-section checks: effect names and parameters, thermometer node, logger vs ODR."""
     from twin.effects import get_effect
@@ -437,9 +490,13 @@ def _check_consistency(scenario: Scenario, path: str, lines: dict[tuple, int]) -
     for name, params in scenario.device.effects.items():
         loc = ("device", "effects", name)
         try:
-            get_effect(name)(**(params or {}))
+            effect = get_effect(name)(**(params or {}))
         except ModelError as exc:
             raise ScenarioError(f"{_where(path, lines, loc)}: device.effects: {exc}") from None
+        if effect.slot == "temperature":
+            raise ScenarioError(
+                f"{_where(path, lines, loc)}: device.effects: {name!r} is the twin's model of the die-thermometer lag; "
+                "a simulated device gets its lag from the thermal chain (set chamber.thermometer.attached_to and tau_s)")
     for i, name in enumerate(scenario.twin.effects):
         try:
             get_effect(name)

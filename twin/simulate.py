@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import datetime as _dt
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
@@ -17,7 +18,7 @@ from sim.sensor import logger_white_sigma_g, sensor_output
 from sim.thermal import ThermalResult, read_thermometer, simulate_chain
 from twin import __version__
 from twin.dataset import LAYOUT_VERSION, Dataset
-from twin.effects import Composition, EffectInputs, get_effect
+from twin.effects import EffectInputs
 from twin.scenario import LoadedScenario
 
 STAGES = ("program", "thermal chain", "effects", "sensor")
@@ -73,7 +74,7 @@ def simulate(
     """
     scn = loaded.scenario
     seed = scn.seed if seed is None else int(seed)
-    rng_white, rng_bias, rng_thermo = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(3))
+    rng_white, rng_bias, rng_thermo, rng_turn_on = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4))
     tick = progress or (lambda stage: None)
     tp = scn.test_plan
 
@@ -88,18 +89,20 @@ def simulate(
     tile = lambda a: np.tile(a, runs)  # noqa: E731 - the thermal response is the same every run
     time_s = (t_run[None, :] + run_period * np.arange(runs)[:, None]).ravel()
     run_index = np.repeat(np.arange(runs, dtype=np.int16), n_run)
-    thermo = np.concatenate([read_thermometer(t_run, th.probe_c, thermometer, rng_thermo) for _ in range(runs)])
-    orient = tp.orientations
-    applied = tile(_step_schedule(t_run, [o.at_s for o in orient], [o.applied_g for o in orient]))
+    composition = loaded.device_composition()
+    probe = replace(thermometer, offset_c=thermometer.offset_c + composition.thermometer_shift_c())
+    thermo = np.concatenate([read_thermometer(t_run, th.probe_c, probe, rng_thermo) for _ in range(runs)])
+    applied = tile(_step_schedule(t_run, *tp.orientation_schedule(t_run[-1])))
     flag, since = _power_on(t_run, tp.power_on_s)
 
     tick(STAGES[2])
     inputs = EffectInputs(time_s=time_s, die_c=tile(th.die_c), thermometer_c=thermo, applied_g=applied,
                           run_index=run_index, time_since_power_on_s=tile(since))
-    composition = Composition([get_effect(name)(**(params or {})) for name, params in scn.device.effects.items()])
-    contributions = composition.evaluate(inputs)
+    contributions = composition.evaluate(inputs, device=True)
     zero_g_g = scn.device.sensor.zero_g_offset_mg * 1e-3
-    bias = zero_g_g + sum((np.broadcast_to(c.bias_g, time_s.shape) for c in contributions.values()), np.zeros(time_s.size))
+    turn_on_g = np.repeat(rng_turn_on.normal(0.0, scn.device.sensor.turn_on_bias_mg * 1e-3, runs), n_run)
+    bias = zero_g_g + turn_on_g + sum((np.broadcast_to(c.bias_g, time_s.shape) for c in contributions.values()),
+                                      np.zeros(time_s.size))
     sf = sum((np.broadcast_to(c.scale_factor, time_s.shape) for c in contributions.values()), np.zeros(time_s.size))
 
     tick(STAGES[3])
@@ -142,7 +145,8 @@ def simulate(
     for name, c in contributions.items():
         ds.add(f"truth/effects/{name}_g", np.broadcast_to(c.output_g(applied), time_s.shape).astype(float), "g",
                f"contribution of effect {name!r} to the output")
-    ds.add("truth/drift_g", true_g - applied)
+    ds.add("truth/drift_g", true_g - applied - turn_on_g)
+    ds.add("truth/turn_on_bias_g", turn_on_g)
     ds.add("truth/bias_g", bias)
     ds.add("truth/scale_factor_error", sf)
     ds.add("truth/noise_white_g", out.white_g)

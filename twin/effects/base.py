@@ -4,13 +4,27 @@ An effect is a named piece of drift physics with physical parameters (unit, defa
 source). It reads named inputs (die temperature, time, applied acceleration …) and contributes
 to the bias [g] and/or the relative scale factor [1]. The model sums contributions; every slot is
 filled, "absent" being the explicit ``null`` effect (architecture principles 1–4).
+
+Parameters have a role:
+
+* ``amplitude`` — enters linearly. :meth:`Effect.basis` returns the contribution per unit of
+  each amplitude at the current nonlinear parameters, so the diagnosis can screen an effect with
+  linear tests, and the contribution is the amplitude-weighted sum of the basis;
+* ``nonlinear`` — a time constant or width, searched on :meth:`Effect.grid` and then refined;
+* ``fixed`` — a convention such as the reference temperature.
+
+``free=False`` marks a parameter the calibrator leaves alone by default (the microstructure
+effects take theirs from geometry and material).
+
+An effect with ``slot = "temperature"`` (``thermal_lag``) does not add drift: in the twin it maps
+the measured temperature to the die temperature the other effects read.
 """
 
 from __future__ import annotations
 
 import difflib
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -26,12 +40,19 @@ class Parameter:
     default: float
     bounds: tuple[float, float]
     source: str
+    role: str = "amplitude"  # "amplitude" | "nonlinear" | "fixed"
+    free: bool = True
     description: str = ""
+    grid: tuple[float, ...] = ()  # screening grid of a nonlinear parameter
 
 
 @dataclass
 class EffectInputs:
-    """Named, unit-bearing inputs an effect may read (all arrays on one time base)."""
+    """Named, unit-bearing inputs an effect may read (all arrays on one time base).
+
+    ``die_c`` is the true die temperature when simulating a device, and the twin's estimate of
+    it (the measured temperature through the temperature slot) when modelling a measurement.
+    """
 
     time_s: np.ndarray
     die_c: np.ndarray
@@ -39,6 +60,26 @@ class EffectInputs:
     applied_g: np.ndarray
     run_index: np.ndarray
     time_since_power_on_s: np.ndarray
+
+    @property
+    def dt_s(self) -> float:
+        """Sample interval [s] (the median step: runs are uniformly sampled)."""
+        return float(np.median(np.diff(self.time_s))) if self.time_s.size > 1 else 1.0
+
+    def run_slices(self) -> list[slice]:
+        """Contiguous runs: stateful effects restart from equilibrium at each run's start."""
+        if self.run_index.size == 0:
+            return []
+        edges = np.flatnonzero(np.diff(self.run_index)) + 1
+        bounds = np.r_[0, edges, self.run_index.size]
+        return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+
+    def per_run(self, fn, x: np.ndarray) -> np.ndarray:
+        """Apply a causal filter ``fn(x_run)`` separately to each run."""
+        out = np.empty(np.shape(x), float)
+        for s in self.run_slices():
+            out[s] = fn(np.asarray(x)[s])
+        return out
 
 
 @dataclass
@@ -52,32 +93,86 @@ class Contribution:
         """Drift in the output [g]: bias + scale-factor change × applied acceleration."""
         return np.asarray(self.bias_g) + np.asarray(self.scale_factor) * np.asarray(applied_g)
 
+    def __add__(self, other: Contribution) -> Contribution:
+        return Contribution(np.asarray(self.bias_g) + other.bias_g, np.asarray(self.scale_factor) + other.scale_factor)
+
+    def __mul__(self, k: float) -> Contribution:
+        return Contribution(np.asarray(self.bias_g) * k, np.asarray(self.scale_factor) * k)
+
+    __rmul__ = __mul__
+
 
 class Effect:
-    """Base class. Subclasses set ``name``, ``family``, ``parameters``, ``reads`` and
-    implement :meth:`contribution`."""
+    """Base class. Subclasses set ``name``, ``family``, ``parameters``, ``reads`` and implement
+    :meth:`basis` (or, for the temperature slot, :meth:`die_temperature`)."""
 
     name: ClassVar[str]
     family: ClassVar[str]
     parameters: ClassVar[tuple[Parameter, ...]] = ()
     reads: ClassVar[tuple[str, ...]] = ()
     description: ClassVar[str] = ""
+    slot: ClassVar[str] = "drift"  # "drift" | "temperature"
+    identifiable: ClassVar[bool] = True  # False: structurally unidentifiable from residuals
+    acts_on_thermometer: ClassVar[bool] = False  # in a simulated device: shifts the reading, not the output
 
-    def __init__(self, **values: float) -> None:
+    def __init__(self, context: dict[str, Any] | None = None, **values: float) -> None:
         known = {p.name: p for p in self.parameters}
         for key in values:
             if key not in known:
-                raise ModelError(f"effect {self.name!r} has no parameter {key!r}{_did_you_mean(key, known)}")
+                raise ModelError(f"effect {self.name!r} has no parameter {key!r}{did_you_mean(key, known)}")
+        self.context = dict(context or {})
         self.values: dict[str, float] = {}
         for p in self.parameters:
-            v = float(values.get(p.name, p.default))
+            try:
+                v = float(values.get(p.name, p.default))
+            except (TypeError, ValueError):
+                raise ModelError(f"effect {self.name!r}: {p.name} must be a number, got {values[p.name]!r}") from None
             lo, hi = p.bounds
             if not lo <= v <= hi:
                 raise ModelError(f"effect {self.name!r}: {p.name} = {v:g} {p.unit} is outside its bounds [{lo:g}, {hi:g}]")
             self.values[p.name] = v
 
-    def contribution(self, inputs: EffectInputs) -> Contribution:  # pragma: no cover - abstract
+    # -- parameters by role
+    @classmethod
+    def amplitude_names(cls) -> list[str]:
+        return [p.name for p in cls.parameters if p.role == "amplitude"]
+
+    @classmethod
+    def nonlinear_names(cls) -> list[str]:
+        return [p.name for p in cls.parameters if p.role == "nonlinear"]
+
+    @classmethod
+    def grid(cls) -> list[dict[str, float]]:
+        """Screening grid over the nonlinear parameters (their product); ``[{}]`` if none."""
+        combos: list[dict[str, float]] = [{}]
+        for p in cls.parameters:
+            if p.role == "nonlinear":
+                values = p.grid or (p.default,)
+                combos = [{**c, p.name: v} for c in combos for v in values]
+        return combos
+
+    def with_values(self, **values: float) -> Effect:
+        """A copy with some parameters changed (same context)."""
+        return type(self)(self.context, **{**self.values, **values})
+
+    # -- physics
+    def basis(self, inputs: EffectInputs) -> dict[str, Contribution]:
+        """Contribution per unit of each amplitude, at the current nonlinear parameters."""
+        return {}
+
+    def contribution(self, inputs: EffectInputs) -> Contribution:
+        """The effect's bias and scale-factor change: Σ amplitude × basis."""
+        total = Contribution()
+        for name, unit_contribution in self.basis(inputs).items():
+            total = total + self.values[name] * unit_contribution
+        return total
+
+    def die_temperature(self, inputs: EffectInputs) -> np.ndarray:  # pragma: no cover - temperature slot only
         raise NotImplementedError
+
+    def thermometer_shift_c(self) -> float:
+        """For ``acts_on_thermometer`` effects: what the reading gains in a simulated device [°C]."""
+        return 0.0
 
     @classmethod
     def describe(cls) -> dict:
@@ -85,10 +180,14 @@ class Effect:
         return {
             "name": cls.name,
             "family": cls.family,
+            "slot": cls.slot,
             "description": cls.description,
             "reads": list(cls.reads),
+            "identifiable": cls.identifiable,
+            "module": cls.__module__,
             "parameters": [
-                {"name": p.name, "unit": p.unit, "default": p.default, "bounds": list(p.bounds), "source": p.source}
+                {"name": p.name, "unit": p.unit, "default": p.default, "bounds": list(p.bounds), "role": p.role,
+                 "free": p.free, "source": p.source, **({"grid": list(p.grid)} if p.grid else {})}
                 for p in cls.parameters
             ],
         }
@@ -99,13 +198,17 @@ REGISTRY: dict[str, type[Effect]] = {}
 
 def register(cls: type[Effect]) -> type[Effect]:
     """Class decorator: add an effect to the registry under its ``name``."""
-    if cls.name in REGISTRY and REGISTRY[cls.name] is not cls:
-        raise ModelError(f"an effect named {cls.name!r} is already registered")
+    for attr in ("name", "family"):
+        if not isinstance(getattr(cls, attr, None), str):
+            raise ModelError(f"effect class {cls.__name__} needs a string {attr!r}")
+    existing = REGISTRY.get(cls.name)
+    if existing is not None and (existing.__module__, existing.__qualname__) != (cls.__module__, cls.__qualname__):
+        raise ModelError(f"an effect named {cls.name!r} is already registered (by {existing.__module__})")
     REGISTRY[cls.name] = cls
     return cls
 
 
-def _did_you_mean(name: str, options) -> str:
+def did_you_mean(name: str, options) -> str:
     close = difflib.get_close_matches(name, list(options), n=1)
     return f"; did you mean {close[0]!r}?" if close else f"; valid: {', '.join(sorted(options))}"
 
@@ -115,14 +218,44 @@ def get_effect(name: str) -> type[Effect]:
     try:
         return REGISTRY[name]
     except KeyError:
-        raise ModelError(f"unknown effect {name!r}{_did_you_mean(name, REGISTRY)}") from None
+        raise ModelError(f"unknown effect {name!r}{did_you_mean(name, REGISTRY)}") from None
 
 
 @dataclass
 class Composition:
-    """Effects summed into one drift; contributions kept per effect as ground truth."""
+    """Effects composed into one model: a temperature slot (``null`` = die is the measured
+    temperature) and drift effects summed; contributions kept per effect as ground truth."""
 
     effects: list[Effect] = field(default_factory=list)
 
-    def evaluate(self, inputs: EffectInputs) -> dict[str, Contribution]:
-        return {e.name: e.contribution(inputs) for e in self.effects}
+    @property
+    def temperature_effect(self) -> Effect | None:
+        slots = [e for e in self.effects if e.slot == "temperature"]
+        if len(slots) > 1:
+            raise ModelError(f"only one temperature-slot effect allowed, got {[e.name for e in slots]}")
+        return slots[0] if slots else None
+
+    @property
+    def drift_effects(self) -> list[Effect]:
+        return [e for e in self.effects if e.slot == "drift"]
+
+    def with_die_temperature(self, inputs: EffectInputs) -> EffectInputs:
+        """Inputs with ``die_c`` from the temperature slot (unchanged when it is empty)."""
+        slot = self.temperature_effect
+        if slot is None:
+            return inputs
+        return EffectInputs(inputs.time_s, slot.die_temperature(inputs), inputs.thermometer_c, inputs.applied_g,
+                            inputs.run_index, inputs.time_since_power_on_s)
+
+    def evaluate(self, inputs: EffectInputs, device: bool = False) -> dict[str, Contribution]:
+        """Per-effect contributions (drift effects only) after the temperature slot.
+
+        ``device=True``: simulating a device, where effects acting on the thermometer change the
+        reading (:meth:`thermometer_shift_c`) and contribute nothing to the output.
+        """
+        inputs = self.with_die_temperature(inputs)
+        return {e.name: (Contribution() if device and e.acts_on_thermometer else e.contribution(inputs))
+                for e in self.drift_effects}
+
+    def thermometer_shift_c(self) -> float:
+        return sum(e.thermometer_shift_c() for e in self.effects if e.acts_on_thermometer)

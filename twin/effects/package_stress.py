@@ -1,0 +1,27 @@
+"""CTE mismatch of the die/attach/package/board stack → bias (elastic, instantaneous)."""
+
+import numpy as np
+
+from twin.effects._common import REFERENCE_C
+from twin.effects.base import Contribution, Effect, Parameter, register
+
+
+@register
+class PackageStress(Effect):
+    name = "package_stress"
+    family = "bias_tc"
+    description = ("bias = coupling × CTE mismatch × ΔT (diagnosis-methods §2b): same signature as a bias "
+                   "tempco, so aliased with static_bias_tc in output data")
+    reads = ("die_c",)
+    parameters = (
+        Parameter("coupling_mg_per_ustrain", "mg/microstrain", 0.02, (-1.0, 1.0),
+                  "chosen so that 0.2 % of the Si-FR-4 mismatch over a 500 µm span gives ~0.3 mg/°C "
+                  "(physics-notes §1.4); device-specific"),
+        Parameter("cte_mismatch_ppm_per_k", "ppm/K", 14.0, (0.0, 300.0), "FR-4 in-plane 16.6 − Si 2.55 (physics-notes §1.4)",
+                  role="fixed", free=False),
+        REFERENCE_C,
+    )
+
+    def basis(self, inputs):
+        strain_ue = self.values["cte_mismatch_ppm_per_k"] * (np.asarray(inputs.die_c) - self.values["reference_c"])
+        return {"coupling_mg_per_ustrain": Contribution(bias_g=strain_ue * 1e-3)}

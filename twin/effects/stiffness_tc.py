@@ -1,0 +1,23 @@
+"""Young's modulus vs temperature → spring stiffness → open-loop sensitivity."""
+
+from sim.materials import KELVIN, silicon_youngs_modulus_pa
+from twin.effects._common import REFERENCE_C
+from twin.effects.base import Contribution, Effect, Parameter, register
+
+
+@register
+class StiffnessTC(Effect):
+    name = "stiffness_tc"
+    family = "scale_factor"
+    description = ("spring k ∝ E(T) (Wachtman/Gysin): sensitivity ∝ 1/k, ≈ +67.9 ppm/°C at 25 °C "
+                   "(physics-notes §1.3); from material, no free amplitude")
+    reads = ("die_c", "applied_g")
+    parameters = (
+        Parameter("scale", "1", 1.0, (0.0, 100.0), "material (Gysin et al. 2004); 1 = as computed; ASIC trim lowers it",
+                  free=False),
+        REFERENCE_C,
+    )
+
+    def basis(self, inputs):
+        e_ref = silicon_youngs_modulus_pa(self.values["reference_c"] + KELVIN)
+        return {"scale": Contribution(scale_factor=e_ref / silicon_youngs_modulus_pa(inputs.die_c + KELVIN) - 1.0)}

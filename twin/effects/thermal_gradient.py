@@ -1,0 +1,23 @@
+"""Stress from the transient gradient across package and board, ∝ rate of change."""
+
+from sim.drift import smoothed_rate_c_per_s
+from twin.effects.base import Contribution, Effect, Parameter, register
+
+
+@register
+class ThermalGradient(Effect):
+    name = "thermal_gradient"
+    family = "thermal_lag"
+    description = ("bias ∝ dT/dt seen through a node of time constant τ (diagnosis-methods §2i); "
+                   "aliased with thermal_lag unless a second probe or ramp-rate dependence separates them")
+    reads = ("die_c",)
+    parameters = (
+        Parameter("coef_mg_per_c_per_min", "mg/(degC/min)", 0.5, (-50.0, 50.0), "similar to lag during ramps (§2i)"),
+        Parameter("tau_s", "s", 300.0, (5.0, 7200.0), "gradient build-up time", role="nonlinear",
+                  grid=(30.0, 100.0, 300.0, 1000.0, 3000.0)),
+    )
+
+    def basis(self, inputs):
+        dt, tau = inputs.dt_s, self.values["tau_s"]
+        rate = inputs.per_run(lambda x: smoothed_rate_c_per_s(x, dt, tau), inputs.die_c)
+        return {"coef_mg_per_c_per_min": Contribution(bias_g=rate * 60.0 * 1e-3)}

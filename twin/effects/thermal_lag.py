@@ -1,0 +1,35 @@
+"""The twin's model of the die lagging the reference thermometer (one or two RC nodes)."""
+
+import numpy as np
+
+from sim.drift import lowpass
+from twin.effects._common import REFERENCE_C
+from twin.effects.base import Contribution, Effect, Parameter, register
+
+
+@register
+class ThermalLag(Effect):
+    name = "thermal_lag"
+    family = "thermal_lag"
+    slot = "temperature"
+    description = ("die = one- or two-node lag of the measured temperature (τ dT_d/dt = T_m − T_d). In the twin "
+                   "it feeds every temperature effect; its screening column is LP_τ(T) − T times a bias tempco. "
+                   "Generated data get their lag from the thermal chain, not from this effect.")
+    reads = ("thermometer_c",)
+    parameters = (
+        Parameter("tau_s", "s", 120.0, (1.0, 7200.0), "board in chamber air: 1-10 min (diagnosis-methods §2a)",
+                  role="nonlinear", grid=(15.0, 30.0, 60.0, 120.0, 240.0, 480.0, 960.0, 1920.0)),
+        Parameter("tau2_s", "s", 0.0, (0.0, 7200.0), "second node (package behind board); 0 = one node",
+                  role="nonlinear", grid=(0.0,)),
+        Parameter("tc_mg_per_c", "mg/degC", 0.8, (-5.0, 5.0),
+                  "bias tempco the lag acts through: amplitude of the screening column only", ),
+        REFERENCE_C,
+    )
+
+    def die_temperature(self, inputs):
+        dt, t1, t2 = inputs.dt_s, self.values["tau_s"], self.values["tau2_s"]
+        return inputs.per_run(lambda x: lowpass(lowpass(x, dt, t1), dt, t2), inputs.thermometer_c)
+
+    def basis(self, inputs):
+        lagged = self.die_temperature(inputs)
+        return {"tc_mg_per_c": Contribution(bias_g=(lagged - np.asarray(inputs.thermometer_c)) * 1e-3)}
