@@ -229,6 +229,34 @@ def render(
     _emit_json(result, json_out)
 
 
+@app.command()
+def effects(
+    scenario: Annotated[Optional[Path], typer.Argument(help="scenario whose twin.plugins to load first")] = None,
+    plugin: Annotated[Optional[list[str]], typer.Option("--plugin", help="effect module (.py path or module name) to load; runs its code")] = None,
+    json_out: JsonOpt = None,
+) -> None:
+    """List the registered effects: names, families, parameters with units, bounds and sources."""
+    from twin.effects import REGISTRY, load_plugin
+
+    try:
+        if scenario is not None:
+            from twin.scenario import load_scenario
+
+            load_scenario(scenario)
+        for spec in plugin or []:
+            load_plugin(spec)
+    except TwinError as exc:
+        _fail(str(exc))
+    table = [REGISTRY[name].describe() for name in sorted(REGISTRY, key=lambda n: (REGISTRY[n].family, n))]
+    if json_out != "-":
+        for e in table:
+            params = ", ".join(f"{p['name']} [{p['unit']}] {p['default']:g} in [{p['bounds'][0]:g}, {p['bounds'][1]:g}]"
+                               f"{' (' + p['role'] + ')' if p['role'] != 'amplitude' else '' if p['free'] else ' (not fitted by default)'}"
+                               for p in e["parameters"])
+            typer.echo(f"{e['name']:<20} {e['family']:<13} {params or '-'}")
+    _emit_json({"effects": table}, json_out)
+
+
 def main() -> None:
     """Console entry point: usage errors and our errors exit 2 with one line."""
     try:

@@ -3,7 +3,6 @@
 import numpy as np
 
 from sim.drift import lowpass
-from twin.effects._common import REFERENCE_C
 from twin.effects.base import Contribution, Effect, Parameter, register
 
 
@@ -22,8 +21,7 @@ class ThermalLag(Effect):
         Parameter("tau2_s", "s", 0.0, (0.0, 7200.0), "second node (package behind board); 0 = one node",
                   role="nonlinear", grid=(0.0,)),
         Parameter("tc_mg_per_c", "mg/degC", 0.8, (-5.0, 5.0),
-                  "bias tempco the lag acts through: amplitude of the screening column only", ),
-        REFERENCE_C,
+                  "bias tempco the lag acts through: amplitude of the screening column only"),
     )
 
     def die_temperature(self, inputs):
