@@ -35,6 +35,7 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/bench_simulate.py --json out/bench_simulate.json
 	$(PY) benchmarks/bench_render.py --json out/bench_render.json
+	$(PY) benchmarks/bench_effects.py --json out/bench_effects.json
 
 clean:
 	rm -rf out .pytest_cache
