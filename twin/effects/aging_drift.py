@@ -13,7 +13,7 @@ class AgingDrift(Effect):
     reads = ("time_s",)
     parameters = (
         Parameter("rate_mg_per_h", "mg/h", 0.05, (-10.0, 10.0), "well under 0.1 mg/h for a settled part (§2j)"),
-        Parameter("log_mg", "mg", 0.0, (-50.0, 50.0), "logarithmic settling amplitude"),
+        Parameter("log_mg", "mg", 0.0, (-50.0, 50.0), "logarithmic settling amplitude", screen=False),
         Parameter("t0_s", "s", 3600.0, (1.0, 1e7), "logarithmic time scale", role="fixed", free=False),
     )
 

@@ -44,6 +44,7 @@ class Parameter:
     free: bool = True
     description: str = ""
     grid: tuple[float, ...] = ()  # screening grid of a nonlinear parameter
+    screen: bool = True  # amplitude used when the effect is screened as a candidate
 
 
 @dataclass

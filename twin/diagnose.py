@@ -1,0 +1,749 @@
+"""Compare the twin with a measurement, show where it fails, and name the missing effect.
+
+Pipeline (diagnosis-methods §1):
+
+0. **Audit**: novelty of every effect against what the calibrated model can already absorb
+   (per-run offsets, the model's own free amplitudes): aliased or untestable effects are listed
+   with the test step that would separate them.
+1. **Prepare**: the thermometer smoothed with a zero-phase filter only (a causal one would inject
+   the lag the tool then "discovers"); blocks averaged (10 s) for screening.
+2. **Calibrate** the twin's effects: bounded linear least squares for amplitudes, profile search
+   and bounded refinement for nonlinear parameters, 95 % intervals from the prewhitened (GLS) fit.
+3. **Noise model**: AR(p), p by BIC ≤ 20, prewhitening per run keeping the first samples.
+4. **Screen** every registered effect not in the model on its parameter grid: prewhitened F-test,
+   Bonferroni over every test, ΔBIC, held-out gain by interleaved-block cross-validation.
+   Decision: p_adj < 0.01 AND ΔBIC > 10 AND held-out gain > 5 %.
+5. **Forward selection** for several effects; a confidence label from the slow-residual share and
+   run consistency.
+
+Compare is blind: it sees the scenario's ``twin``, ``device.sensor`` and ``test_plan`` and the
+measurement's columns, never ``device.effects`` or ground truth.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+from scipy.ndimage import uniform_filter1d
+from scipy.optimize import lsq_linear, minimize_scalar
+
+from twin.effects import REGISTRY, Composition, Effect, EffectInputs, get_effect
+from twin.measurement import Measurement
+from twin.noise import ARModel, BlockAverager, fit_ar, white_noise_sigma_from_differences
+
+# What would make an effect testable or separable (diagnosis-methods §2).
+REMEDY = {
+    "scale_factor": "add orientations: a +1 g / -1 g (tumble) run makes scale-factor drift odd in g",
+    "bias_tc": "bias tempcos of MEMS, package and ASIC share one signature: only another package/board or "
+               "self-test data separate them",
+    "thermal_lag": "add a second probe on the PCB and a second ramp rate (lag and gradient respond differently)",
+    "hysteresis": "add a second ramp rate and long dwells (lag scales with rate, hysteresis does not)",
+    "aging": "return to the same temperature at start and end and repeat identical cycles",
+    "warmup": "power-cycle the device 2-3 times at different chamber temperatures, keeping the first samples",
+    "probe": "glue a calibrated reference probe to the package: a probe offset is absorbed by the fitted offset",
+}
+
+
+@dataclass
+class DiagnosisConfig:
+    average_s: float = 10.0
+    smooth_temperature_s: float = 10.0
+    max_ar_order: int = 20
+    alpha: float = 0.01
+    min_delta_bic: float = 10.0
+    min_heldout_gain: float = 0.05
+    cv_folds: int = 5
+    cv_block_s: float = 300.0
+    max_added: int = 3
+    alias_novelty: float = 0.02
+    alias_correlation: float = 0.9
+    slow_window_s: float = 1800.0
+
+
+# --------------------------------------------------------------------------------------- problem
+
+
+class Problem:
+    """A measurement prepared for modelling."""
+
+    def __init__(self, m: Measurement, config: DiagnosisConfig, sensor=None):
+        self.m, self.config = m, config
+        rate = m.sample_rate_hz
+        self.rate_hz = rate
+        w = max(1, int(round(config.smooth_temperature_s * rate)))
+        temp = np.empty_like(m.temperature_c)
+        for s in _run_slices(m.run_index):
+            temp[s] = uniform_filter1d(m.temperature_c[s], w, mode="nearest") if w > 1 else m.temperature_c[s]
+        applied = m.applied_g.copy()
+        if not m.applied_known:  # orientation unknown: a per-run constant (absorbed by per-run offsets)
+            for s in _run_slices(m.run_index):
+                applied[s] = np.median(m.output_g[s])
+        self.applied = applied
+        self.inputs = EffectInputs(m.time_s, temp, temp, applied, m.run_index, m.time_since_power_on_s())
+        self.y = m.output_g - applied
+        self.avg = BlockAverager.build(m.run_index, int(round(config.average_s * rate)))
+        self.run_avg = self.avg.run_of_block
+        cols, names = [], []
+        for r in range(m.runs):
+            cols.append((m.run_index == r).astype(float))
+            names.append(f"offset_run{r}")
+        if m.applied_known and np.std(applied) > 0.1:
+            cols.append(applied)  # sensitivity calibration error K1 (IEEE 1293 scale factor)
+            names.append("scale_factor_k1")
+        self.nuisance = np.column_stack(cols)
+        self.nuisance_names = names
+        self.sensor = sensor
+
+    @property
+    def n(self) -> int:
+        return int(self.y.size)
+
+
+def _run_slices(run_index: np.ndarray) -> list[slice]:
+    edges = np.r_[0, np.flatnonzero(np.diff(run_index)) + 1, len(run_index)]
+    return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def _design(problem: Problem, comp: Composition) -> tuple[np.ndarray, list[tuple[str, str]], np.ndarray, EffectInputs]:
+    """Full-rate columns of the model's free amplitudes, their names, the fixed part, the inputs."""
+    inputs = comp.with_die_temperature(problem.inputs)
+    cols, names = [], []
+    fixed = np.zeros(problem.n)
+    for e in comp.drift_effects:
+        free = {p.name for p in e.parameters if p.role == "amplitude" and p.free}
+        for amp, contrib in e.basis(inputs).items():
+            col = np.broadcast_to(contrib.output_g(problem.applied), (problem.n,)).astype(float)
+            if amp in free:
+                cols.append(col)
+                names.append((e.name, amp))
+            else:
+                fixed += e.values[amp] * col
+    X = np.column_stack(cols) if cols else np.zeros((problem.n, 0))
+    return X, names, fixed, inputs
+
+
+def _bounds(comp: Composition, names, n_nuisance) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = [-np.inf] * n_nuisance, [np.inf] * n_nuisance
+    for eff, amp in names:
+        p = next(p for p in get_effect(eff).parameters if p.name == amp)
+        lo.append(p.bounds[0])  # columns are per unit of the parameter: bounds apply as they are
+        hi.append(p.bounds[1])
+    return np.array(lo), np.array(hi)
+
+
+# ----------------------------------------------------------------------------------- calibration
+
+
+@dataclass
+class Calibration:
+    composition: Composition
+    names: list[tuple[str, str]]  # free amplitudes, in column order after the nuisance
+    beta: np.ndarray  # nuisance then amplitudes
+    cov: np.ndarray
+    ar: ARModel
+    X_full: np.ndarray  # nuisance + amplitude columns, full rate
+    fixed_full: np.ndarray
+    inputs: EffectInputs
+    residual: np.ndarray  # full rate
+    residual_avg: np.ndarray
+    nonlinear_ci: dict[tuple[str, str], tuple[float, float]] = field(default_factory=dict)
+
+    @property
+    def prediction_minus_applied(self) -> np.ndarray:
+        return self.X_full @ self.beta + self.fixed_full
+
+
+def _fit_linear(A: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    if A.shape[1] == 0:
+        return np.zeros(0)
+    scale = np.linalg.norm(A, axis=0)
+    scale[scale == 0] = 1.0
+    As = A / scale
+    if np.all(np.isinf(lo)) and np.all(np.isinf(hi)):
+        x = np.linalg.lstsq(As, b, rcond=None)[0]
+    else:
+        x = lsq_linear(As, b, bounds=(lo * scale, hi * scale), method="bvls", lsmr_tol="auto").x
+    return x / scale
+
+
+def _rss_for(problem: Problem, comp: Composition) -> float:
+    X, names, fixed, _ = _design(problem, comp)
+    A = problem.avg(np.column_stack([problem.nuisance, X]))
+    b = problem.avg(problem.y - fixed)
+    lo, hi = _bounds(comp, names, problem.nuisance.shape[1])
+    beta = _fit_linear(A, b, lo, hi)
+    r = b - A @ beta
+    return float(r @ r)
+
+
+def _nonlinear_slots(comp: Composition) -> list[tuple[int, str]]:
+    out = []
+    for i, e in enumerate(comp.effects):
+        for p in e.parameters:
+            if p.role == "nonlinear" and p.free and len(p.grid) > 1:
+                out.append((i, p.name))
+    return out
+
+
+def _with(comp: Composition, i: int, name: str, value: float) -> Composition:
+    effects = list(comp.effects)
+    effects[i] = effects[i].with_values(**{name: value})
+    return Composition(effects)
+
+
+def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | None = None) -> Calibration:
+    """Fit the model's free parameters to the measurement (see module docstring)."""
+    config = config or problem.config
+    slots = _nonlinear_slots(comp)
+    for _ in range(2 if len(slots) > 1 else 1):
+        for i, pname in slots:
+            param = next(p for p in comp.effects[i].parameters if p.name == pname)
+            grid = sorted(set(param.grid) | {comp.effects[i].values[pname]})
+            rss = [_rss_for(problem, _with(comp, i, pname, v)) for v in grid]
+            k = int(np.argmin(rss))
+            lo = grid[max(k - 1, 0)]
+            hi = grid[min(k + 1, len(grid) - 1)]
+            lo, hi = max(lo, param.bounds[0]), min(hi, param.bounds[1])
+            best = grid[k]
+            if hi > lo:
+                res = minimize_scalar(lambda lv: _rss_for(problem, _with(comp, i, pname, float(np.exp(lv)))),
+                                      bounds=(np.log(max(lo, 1e-9)), np.log(hi)), method="bounded",
+                                      options={"xatol": 1e-3})
+                if res.fun <= rss[k]:
+                    best = float(np.exp(res.x))
+            comp = _with(comp, i, pname, best)
+    X, names, fixed, inputs = _design(problem, comp)
+    X_full = np.column_stack([problem.nuisance, X])
+    A = problem.avg(X_full)
+    b = problem.avg(problem.y - fixed)
+    lo, hi = _bounds(comp, names, problem.nuisance.shape[1])
+    beta = _fit_linear(A, b, lo, hi)
+    r_avg = b - A @ beta
+    ar = fit_ar(r_avg, problem.run_avg, config.max_ar_order)
+    Aw = ar.prewhiten(A, problem.run_avg)
+    rw = ar.prewhiten(r_avg, problem.run_avg)
+    dof = max(1, A.shape[0] - A.shape[1])
+    s2 = float(rw @ rw) / dof
+    cov = s2 * np.linalg.pinv(Aw.T @ Aw)
+    # write the fitted amplitudes back into the effects
+    effects = list(comp.effects)
+    nn = problem.nuisance.shape[1]
+    for j, (eff, amp) in enumerate(names):
+        idx = next(k for k, e in enumerate(effects) if e.name == eff)
+        effects[idx] = effects[idx].with_values(**{amp: float(np.clip(beta[nn + j], lo[nn + j], hi[nn + j]))})
+    comp = Composition(effects)
+    residual = problem.y - X_full @ beta - fixed
+    cal = Calibration(comp, names, beta, cov, ar, X_full, fixed, inputs, residual, r_avg)
+    cal.nonlinear_ci = _profile_ci(problem, comp, ar, slots)
+    return cal
+
+
+def _profile_ci(problem: Problem, comp: Composition, ar: ARModel, slots) -> dict:
+    """95 % profile-likelihood interval of each nonlinear parameter: n ln(RSS/RSS_min) ≤ 3.84,
+    RSS of the prewhitened averaged fit."""
+    out = {}
+    for i, pname in slots:
+        v0 = comp.effects[i].values[pname]
+        lo_b, hi_b = next(p.bounds for p in comp.effects[i].parameters if p.name == pname)
+        grid = np.unique(np.clip(v0 * np.exp(np.linspace(-1.2, 1.2, 25)), lo_b, hi_b))
+        rss = []
+        for v in grid:
+            c = _with(comp, i, pname, float(v))
+            X, names, fixed, _ = _design(problem, c)
+            A = problem.avg(np.column_stack([problem.nuisance, X]))
+            b = problem.avg(problem.y - fixed)
+            Aw, bw = ar.prewhiten(A, problem.run_avg), ar.prewhiten(b, problem.run_avg)
+            beta = np.linalg.lstsq(Aw, bw, rcond=None)[0]
+            r = bw - Aw @ beta
+            rss.append(float(r @ r))
+        rss = np.array(rss)
+        n = problem.run_avg.size
+        inside = grid[n * np.log(rss / rss.min()) <= 3.84]
+        out[(comp.effects[i].name, pname)] = (float(inside.min()), float(inside.max()))
+    return out
+
+
+# ------------------------------------------------------------------------------------ screening
+
+
+@dataclass
+class CandidateResult:
+    effect: str
+    family: str
+    grid_values: dict[str, float]
+    delta_bic: float
+    p_value: float
+    p_adjusted: float
+    explained_fraction: float
+    heldout_gain: float
+    novelty: float
+    amplitudes: dict[str, tuple[float, float]]  # name -> (estimate, half-width of 95 % CI)
+    columns_full: np.ndarray | None = None
+    significant: bool = False
+    rms_residual_g: float = float("nan")
+    testable: bool = True
+    note: str = ""
+
+
+def _screen_columns(problem: Problem, cal: Calibration, cls: type[Effect], values: dict[str, float]):
+    """Full-rate candidate columns (n × m) and amplitude names."""
+    ctx = cal.composition.effects[0].context if cal.composition.effects else {}
+    eff = cls(ctx, **values)
+    if eff.slot == "temperature":
+        # Linearised: the calibrated model's temperature sensitivity times the lag of the die.
+        lagged = eff.die_temperature(problem.inputs)
+        deriv = _temperature_derivative(problem, cal)
+        if np.max(np.abs(deriv)) < 1e-9:
+            deriv = np.full(problem.n, 1e-3)
+        return (deriv * (lagged - problem.inputs.die_c))[:, None], ["fraction"]
+    screened = [p.name for p in eff.parameters if p.role == "amplitude" and p.screen]
+    basis = eff.basis(cal.inputs)
+    names = [a for a in screened if a in basis]
+    cols = [np.broadcast_to(basis[a].output_g(problem.applied), (problem.n,)).astype(float) for a in names]
+    return np.column_stack(cols), names
+
+
+def _temperature_derivative(problem: Problem, cal: Calibration, h: float = 0.5) -> np.ndarray:
+    """∂(model output)/∂(die temperature) of the calibrated drift effects [g/°C]."""
+    def total(shift):
+        inp = EffectInputs(cal.inputs.time_s, cal.inputs.die_c + shift, cal.inputs.thermometer_c, problem.applied,
+                           cal.inputs.run_index, cal.inputs.time_since_power_on_s)
+        out = np.zeros(problem.n)
+        for e in cal.composition.drift_effects:
+            out += np.broadcast_to(e.contribution(inp).output_g(problem.applied), (problem.n,))
+        return out
+
+    return (total(h) - total(-h)) / (2 * h)
+
+
+def _orthonormal(Aw: np.ndarray) -> np.ndarray:
+    if Aw.shape[1] == 0:
+        return np.zeros((Aw.shape[0], 0))
+    q, r = np.linalg.qr(Aw)
+    keep = np.abs(np.diag(r)) > 1e-10 * np.abs(np.diag(r)).max()
+    return q[:, keep]
+
+
+def _novelty(X: np.ndarray, Q: np.ndarray) -> float:
+    """Share of a column's variance the design spanned by ``Q`` cannot mimic: 1 − R²(X ~ J).
+
+    The smallest over the columns of X; 0 for a (numerically) constant column.
+    """
+    perp = X - Q @ (Q.T @ X)
+    centred = X - X.mean(axis=0)
+    denom = np.linalg.norm(centred, axis=0)
+    scale = np.linalg.norm(X, axis=0)
+    ok = denom > 1e-9 * np.maximum(scale, 1e-300)
+    ratios = np.where(ok, (np.linalg.norm(perp, axis=0) / np.where(ok, denom, 1.0)) ** 2, 0.0)
+    return float(np.clip(ratios.min(), 0.0, 1.0)) if ratios.size else 0.0
+
+
+def _cv_folds(problem: Problem) -> np.ndarray:
+    cfg = problem.config
+    block = max(1, int(round(cfg.cv_block_s / cfg.average_s)))
+    idx = np.arange(problem.run_avg.size)
+    return (idx // block) % cfg.cv_folds
+
+
+def _heldout_errors(A: np.ndarray, b: np.ndarray, folds: np.ndarray) -> np.ndarray:
+    """Prediction errors of each block when its fold is held out (interleaved-block CV)."""
+    err = np.empty_like(b)
+    for f in np.unique(folds):
+        test = folds == f
+        beta = np.linalg.lstsq(A[~test], b[~test], rcond=None)[0]
+        err[test] = b[test] - A[test] @ beta
+    return err
+
+
+def _heldout_sse(A: np.ndarray, b: np.ndarray, folds: np.ndarray) -> float:
+    e = _heldout_errors(A, b, folds)
+    return float(e @ e)
+
+
+def screen(problem: Problem, cal: Calibration, candidates: list[str], extra: np.ndarray | None = None,
+           n_tests: int | None = None) -> list[CandidateResult]:
+    """Screen ``candidates`` on top of the calibrated model (plus ``extra`` full-rate columns)."""
+    cfg = problem.config
+    J_full = cal.X_full if extra is None else np.column_stack([cal.X_full, extra])
+    J = problem.avg(J_full)
+    y_avg = problem.avg(problem.y - cal.fixed_full)
+    ar = cal.ar
+    Jw, yw = ar.prewhiten(J, problem.run_avg), ar.prewhiten(y_avg, problem.run_avg)
+    Q = _orthonormal(Jw)
+    r0 = yw - Q @ (Q.T @ yw)
+    rss0 = float(r0 @ r0)
+    n, q = yw.size, Q.shape[1]
+    folds = _cv_folds(problem)
+    Qraw = _orthonormal(J)
+    if n_tests is None:
+        n_tests = sum(len(get_effect(c).grid()) for c in candidates)
+    results = []
+    for name in candidates:
+        cls = get_effect(name)
+        best = None
+        for g in cls.grid():
+            X_full, amp_names = _screen_columns(problem, cal, cls, g)
+            X = problem.avg(X_full)
+            Xw = ar.prewhiten(X, problem.run_avg)
+            Xp = Xw - Q @ (Q.T @ Xw)
+            m = X.shape[1]
+            norm = np.linalg.norm(Xp, axis=0)
+            novelty = _novelty(X, Qraw)
+            if np.all(norm < 1e-12 * max(1.0, np.linalg.norm(Xw))) or novelty < 1e-9:
+                res = CandidateResult(name, cls.family, g, 0.0, 1.0, 1.0, 0.0, 0.0, novelty, {}, X_full)
+            else:
+                coef, *_ = np.linalg.lstsq(Xp, r0, rcond=None)
+                fit = Xp @ coef
+                rss1 = max(rss0 - float(fit @ fit), 1e-300)
+                dof = max(1, n - q - m)
+                F = ((rss0 - rss1) / m) / (rss1 / dof)
+                p = float(stats.f.sf(F, m, dof))
+                dbic = float(n * np.log(rss0 / rss1) - m * np.log(n))
+                s2 = rss1 / dof
+                cov = s2 * np.linalg.pinv(Xp.T @ Xp)
+                amps = {a: (float(coef[j]), float(1.96 * np.sqrt(max(cov[j, j], 0.0)))) for j, a in enumerate(amp_names)}
+                res = CandidateResult(name, cls.family, g, dbic, p, min(1.0, p * n_tests), 1 - rss1 / rss0, 0.0,
+                                      novelty, amps, X_full)
+            if best is None or res.delta_bic > best.delta_bic:
+                best = res
+        if best.delta_bic > 0:
+            X = problem.avg(best.columns_full)
+            # gain where the candidate acts: a power-on transient must not be diluted by hours of dwell
+            act = np.abs(X - Qraw @ (Qraw.T @ X)).max(axis=1)
+            support = act > 0.1 * act.max()
+            e0 = _heldout_errors(J, y_avg, folds)[support]
+            e1 = _heldout_errors(np.column_stack([J, X]), y_avg, folds)[support]
+            sse0s, sse1s = float(e0 @ e0), float(e1 @ e1)
+            best.heldout_gain = float(1 - np.sqrt(sse1s / sse0s)) if sse0s > 0 else 0.0
+        best.significant = bool(best.p_adjusted < cfg.alpha and best.delta_bic > cfg.min_delta_bic
+                                and best.heldout_gain > cfg.min_heldout_gain and cls.identifiable
+                                and best.novelty >= cfg.alias_novelty)
+        results.append(best)
+    results.sort(key=lambda r: r.delta_bic, reverse=True)
+    return results
+
+
+# ---------------------------------------------------------------------------------- the report
+
+
+@dataclass
+class Diagnosis:
+    calibration: Calibration
+    problem: Problem
+    candidates: list[CandidateResult]
+    selected: list[CandidateResult]
+    aliases: list[dict]
+    untestable: list[dict]
+    model_aliased: list[dict]
+    noise_floor_g: float
+    noise_floor_model_g: float | None
+    confidence: str
+    finding: str
+    heldout_rms_g: float
+    slow_share: float | None
+    run_consistent: bool | None
+    segments: dict
+
+    @property
+    def rms_residual_g(self) -> float:
+        return float(np.sqrt(np.mean(self.calibration.residual ** 2)))
+
+
+def candidate_names(comp: Composition) -> list[str]:
+    present = {e.name for e in comp.effects}
+    has_slot = comp.temperature_effect is not None
+    return sorted(n for n, c in REGISTRY.items()
+                  if n not in present and n != "null" and not (c.slot == "temperature" and has_slot))
+
+
+def _novelty_of_model(problem: Problem, cal: Calibration, cfg: DiagnosisConfig) -> list[dict]:
+    """Model amplitudes this data cannot estimate (aliased with offsets or each other)."""
+    A = problem.avg(cal.X_full)
+    nn = problem.nuisance.shape[1]
+    out = []
+    for j, (eff, amp) in enumerate(cal.names):
+        col = A[:, nn + j]
+        others = np.delete(A, nn + j, axis=1)
+        Q = _orthonormal(others)
+        perp = col - Q @ (Q.T @ col)
+        denom = np.linalg.norm(col - col.mean())
+        novelty = float((np.linalg.norm(perp) / denom) ** 2) if denom > 0 else 0.0
+        if novelty < cfg.alias_novelty:
+            corr = [abs(np.corrcoef(col, others[:, k])[0, 1]) if np.std(others[:, k]) > 0 else 0.0
+                    for k in range(others.shape[1])]
+            labels = problem.nuisance_names + [f"{e}.{a}" for e, a in cal.names]
+            labels = [lab for k, lab in enumerate(labels) if k != nn + j]
+            partner = labels[int(np.argmax(corr))] if corr else "the offsets"
+            out.append({"effect": eff, "parameter": amp, "novelty": novelty, "aliased_with": partner})
+    return out
+
+
+def _segments(problem: Problem, residual: np.ndarray) -> dict:
+    """Residual RMS per segment type, orientation, run and temperature bin."""
+    m = problem.m
+    temp = problem.inputs.die_c
+    rate = np.gradient(uniform_filter1d(temp, max(1, int(60 * problem.rate_hz)), mode="nearest")) * problem.rate_hz
+    kind = np.where(rate > 0.1 / 60, "heating", np.where(rate < -0.1 / 60, "cooling", "dwell"))
+    rms = lambda x: float(np.sqrt(np.mean(x * x))) if x.size else float("nan")  # noqa: E731
+    out = {"segment": {k: rms(residual[kind == k]) for k in ("dwell", "heating", "cooling") if np.any(kind == k)},
+           "run": {str(r): rms(residual[m.run_index == r]) for r in range(m.runs)}}
+    if m.applied_known:
+        out["orientation"] = {f"{g:+g} g": rms(residual[np.isclose(problem.applied, g)])
+                              for g in np.unique(np.round(problem.applied, 3))}
+    bins = np.arange(np.floor(temp.min() / 5) * 5, temp.max() + 5, 5.0)
+    which = np.digitize(temp, bins)
+    out["temperature_bin_c"] = {f"{bins[k - 1]:g}..{bins[k - 1] + 5:g}": rms(residual[which == k])
+                                for k in np.unique(which) if 0 < k <= bins.size}
+    # loop area: ∮ r dT per run, in mg·°C (heating vs cooling difference)
+    out["loop_area_mg_c"] = {str(r): float(np.sum(residual[m.run_index == r][:-1] * np.diff(temp[m.run_index == r])) * 1e3)
+                             for r in range(m.runs)}
+    out["kind"] = kind
+    return out
+
+
+def _slow_share(problem: Problem, before: np.ndarray, after: np.ndarray) -> float:
+    w = max(1, int(round(problem.config.slow_window_s / problem.config.average_s)))
+    s0 = uniform_filter1d(before, w, mode="nearest")
+    s1 = uniform_filter1d(after, w, mode="nearest")
+    v0 = float(np.var(s0))
+    return float(1 - np.var(s1) / v0) if v0 > 0 else 0.0
+
+
+def _run_consistency(problem: Problem, cal: Calibration, cand: CandidateResult) -> bool | None:
+    """F-test that the candidate's coefficient is the same in every run (None: one run, or the
+    feature lives in one run only)."""
+    m = problem.m
+    if m.runs < 2:
+        return None
+    X = problem.avg(cand.columns_full)[:, 0]
+    runs = problem.run_avg
+    active = [r for r in range(m.runs) if np.std(X[runs == r]) > 1e-3 * np.std(X)]
+    if len(active) < 2:
+        return None
+    J = problem.avg(cal.X_full)
+    y = problem.avg(problem.y - cal.fixed_full)
+    common = np.column_stack([J, X])
+    split = np.column_stack([J] + [np.where(runs == r, X, 0.0) for r in active])
+    ar = cal.ar
+    cw, sw, yw = ar.prewhiten(common, runs), ar.prewhiten(split, runs), ar.prewhiten(y, runs)
+    r0 = yw - cw @ np.linalg.lstsq(cw, yw, rcond=None)[0]
+    r1 = yw - sw @ np.linalg.lstsq(sw, yw, rcond=None)[0]
+    k = len(active) - 1
+    dof = max(1, yw.size - sw.shape[1])
+    F = ((r0 @ r0 - r1 @ r1) / k) / ((r1 @ r1) / dof)
+    return bool(stats.f.sf(F, k, dof) > 0.001)
+
+
+def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | None = None) -> Diagnosis:
+    """Calibrate, audit, screen, select; see the module docstring."""
+    cfg = problem.config
+    cal = calibrate(problem, comp)
+    names = candidate_names(cal.composition)
+    if not problem.m.applied_known:
+        names = [n for n in names if get_effect(n).family != "scale_factor"]
+    n_tests = sum(len(get_effect(c).grid()) for c in names)
+    first = screen(problem, cal, names, n_tests=n_tests)
+    # forward selection
+    selected: list[CandidateResult] = []
+    pool = first
+    extra = None
+    while pool and len(selected) < cfg.max_added:
+        top = next((c for c in pool if c.significant), None)
+        if top is None:
+            break
+        selected.append(top)
+        extra = np.column_stack([extra, top.columns_full]) if extra is not None else top.columns_full
+        rest = [c.effect for c in pool if c.effect != top.effect and c.family != top.family]
+        pool = screen(problem, cal, rest, extra=extra, n_tests=n_tests) if rest else []
+    # error after adding each candidate (linear refit at its best grid point), at the sample rate
+    A_full = cal.X_full
+    A_avg = problem.avg(A_full)
+    y_avg = problem.avg(problem.y - cal.fixed_full)
+    for c in first:
+        X = c.columns_full
+        beta = np.linalg.lstsq(np.column_stack([A_avg, problem.avg(X)]), y_avg, rcond=None)[0]
+        r = problem.y - cal.fixed_full - np.column_stack([A_full, X]) @ beta
+        c.rms_residual_g = float(np.sqrt(np.mean(r * r)))
+    # audit: aliases among candidates, untestable effects, model amplitudes the data cannot fix
+    untestable, aliases = [], []
+    for c in first:
+        cls = get_effect(c.effect)
+        if not cls.identifiable or c.novelty < cfg.alias_novelty:
+            why = ("structurally unidentifiable from residuals" if not cls.identifiable
+                   else f"novelty {c.novelty:.3g}: what it would add, the calibrated model already absorbs")
+            untestable.append({"effect": c.effect, "family": c.family, "reason": why,
+                               "remedy": REMEDY.get(c.family, "")})
+    if not problem.m.applied_known:
+        for n in candidate_names(cal.composition):
+            if get_effect(n).family == "scale_factor":
+                untestable.append({"effect": n, "family": "scale_factor", "reason": "orientation not logged",
+                                   "remedy": REMEDY["scale_factor"]})
+    testable = [c for c in first if c.novelty >= cfg.alias_novelty and get_effect(c.effect).identifiable]
+    J = problem.avg(cal.X_full)
+    Q = _orthonormal(J)
+    perps = {}
+    for c in testable:
+        X = problem.avg(c.columns_full)[:, 0]
+        perps[c.effect] = X - Q @ (Q.T @ X)
+    groups: list[set[str]] = []
+    keys = list(perps)
+    for i, a in enumerate(keys):
+        for b in keys[i + 1:]:
+            pa, pb = perps[a], perps[b]
+            if np.std(pa) == 0 or np.std(pb) == 0:
+                continue
+            if abs(np.corrcoef(pa, pb)[0, 1]) > cfg.alias_correlation:
+                for g in groups:
+                    if a in g or b in g:
+                        g.update({a, b})
+                        break
+                else:
+                    groups.append({a, b})
+    for g in groups:
+        fams = sorted({get_effect(e).family for e in g})
+        aliases.append({"effects": sorted(g), "families": fams,
+                        "remedy": "; ".join(REMEDY.get(f, "") for f in fams if REMEDY.get(f))})
+    model_aliased = []
+    for a in _novelty_of_model(problem, cal, cfg):
+        if all(a["effect"] != b["effect"] for b in model_aliased):
+            model_aliased.append(a)
+    confounded = [a for a in model_aliased if a["aliased_with"].startswith("offset_run")]
+    for a in model_aliased:
+        aliases.append({"effects": [a["effect"]], "families": [get_effect(a["effect"]).family],
+                        "aliased_with": a["aliased_with"],
+                        "remedy": ("the temperature is nearly constant within each run and the runs differ in "
+                                   "orientation/offset: temperature and orientation cannot be separated; log the "
+                                   "orientation and ramp the temperature within a run")
+                        if a["aliased_with"].startswith("offset_run") else REMEDY.get(get_effect(a["effect"]).family, "")})
+    # noise floor, confidence
+    floor = white_noise_sigma_from_differences(cal.residual, problem.m.run_index)
+    slow, consistent = None, None
+    if selected:
+        top = selected[0]
+        X = problem.avg(top.columns_full)
+        J2 = np.column_stack([problem.avg(cal.X_full), X])
+        y2 = problem.avg(problem.y - cal.fixed_full)
+        after = y2 - J2 @ np.linalg.lstsq(J2, y2, rcond=None)[0]
+        slow = _slow_share(problem, cal.residual_avg, after)
+        consistent = _run_consistency(problem, cal, top)
+        confident = slow >= 0.5 and consistent is not False and not confounded
+        confidence = "confident" if confident else "uncertain"
+    else:
+        confidence = "uncertain" if confounded else "none"
+    folds = _cv_folds(problem)
+    heldout = float(np.sqrt(_heldout_sse(problem.avg(cal.X_full), problem.avg(problem.y - cal.fixed_full), folds)
+                            / problem.run_avg.size))
+    seg = _segments(problem, cal.residual)
+    d = Diagnosis(cal, problem, first, selected, aliases, untestable, model_aliased, floor, noise_floor_model_g,
+                  confidence, "", heldout, slow, consistent, seg)
+    d.finding = finding_text(d)
+    return d
+
+
+# ------------------------------------------------------------------------------------ language
+
+
+_SIGNATURE = {
+    "thermal_lag": "The residual follows −dT/dt, changes sign between heating and cooling and settles in dwells",
+    "hysteresis": "Heating and cooling branches of the residual differ at the same temperature (a loop in residual vs "
+                  "temperature)",
+    "scale_factor": "The residual flips sign with the orientation (odd in the applied g) and grows with temperature",
+    "bias_tc": "The residual is a smooth function of temperature, the same on heating and cooling",
+    "aging": "The residual drifts steadily in time, whatever the temperature",
+    "warmup": "The residual has a transient after each power-on",
+}
+
+
+def _fmt_mg(x_g: float) -> str:
+    return f"{x_g * 1e3:.3g} mg"
+
+
+def finding_text(d: Diagnosis) -> str:
+    """A plain-language finding for the report and the CLI."""
+    rms = d.rms_residual_g
+    parts = []
+    if d.selected:
+        top = d.selected[0]
+        sig = _SIGNATURE.get(top.family, f"The residual has the signature of {top.family}")
+        param = ", ".join(f"{k} ≈ {v:.3g}" for k, v in top.grid_values.items())
+        phys = {"thermal_lag": f"the die lags the thermometer by ≈{top.grid_values.get('tau_s', float('nan')):.0f} s"}.get(
+            top.effect, f"best explanation: {top.effect}" + (f" ({param})" if param else ""))
+        parts.append(f"{sig}: {phys}. Adding {top.effect} lowers the RMS from {_fmt_mg(rms)} to "
+                     f"{_fmt_mg(top.rms_residual_g)}; noise floor {_fmt_mg(d.noise_floor_g)} "
+                     f"(ΔBIC {top.delta_bic:.0f}, held-out gain {100 * top.heldout_gain:.0f} %).")
+        if len(d.selected) > 1:
+            parts.append("Also missing: " + ", ".join(c.effect for c in d.selected[1:]) + ".")
+        if d.confidence == "uncertain":
+            parts.append("Confidence is limited: " + ("structure remains after adding it (it removes "
+                                                      f"{100 * (d.slow_share or 0):.0f} % of the slow residual)"
+                                                      if (d.slow_share or 0) < 0.5 else "its coefficient differs between runs"
+                                                      if d.run_consistent is False else
+                                                      "temperature is confounded with the per-run offsets") + ".")
+    else:
+        parts.append(f"No missing effect found: residual RMS {_fmt_mg(rms)} against a noise floor of "
+                     f"{_fmt_mg(d.noise_floor_g)}.")
+    for a in d.aliases:
+        if "aliased_with" in a:
+            parts.append(f"{a['effects'][0]} cannot be estimated from this data (aliased with {a['aliased_with']}): "
+                         f"{a['remedy']}.")
+        else:
+            parts.append(f"Cannot be separated with this test: {', '.join(a['effects'])}; {a['remedy']}.")
+    for u in d.untestable:
+        if u["family"] in ("scale_factor", "probe"):
+            parts.append(f"Untestable here: {u['effect']} ({u['reason']}); {u['remedy']}.")
+    return " ".join(parts)
+
+
+def result_json(d: Diagnosis) -> dict:
+    """The JSON contract of ``twin compare``."""
+    cal = d.calibration
+    params: dict[str, dict] = {}
+    nn = d.problem.nuisance.shape[1]
+    for e in cal.composition.effects:
+        entry = {}
+        for p in e.parameters:
+            v = e.values[p.name]
+            item = {"value": v, "unit": p.unit, "role": p.role, "free": p.free}
+            if (e.name, p.name) in cal.names:
+                j = nn + cal.names.index((e.name, p.name))
+                half = 1.96 * float(np.sqrt(max(cal.cov[j, j], 0.0)))
+                item["ci95"] = [v - half, v + half]
+            if (e.name, p.name) in cal.nonlinear_ci:
+                item["ci95"] = list(cal.nonlinear_ci[(e.name, p.name)])
+            lo, hi = p.bounds
+            item["on_bound"] = bool(p.free and p.role != "fixed" and (np.isclose(v, lo, rtol=1e-6, atol=1e-12)
+                                                                       or np.isclose(v, hi, rtol=1e-6, atol=1e-12)))
+            item["outside_physical_range"] = bool(not lo <= v <= hi)
+            entry[p.name] = item
+        params[e.name] = entry
+    params["nuisance"] = {name: {"value": float(cal.beta[j]), "unit": "g" if name.startswith("offset") else "1"}
+                          for j, name in enumerate(d.problem.nuisance_names)}
+    cands = [{
+        "effect": c.effect, "family": c.family, "significant": c.significant, "rms_residual_g": c.rms_residual_g,
+        "explained_fraction": c.explained_fraction, "delta_bic": c.delta_bic, "p_adjusted": c.p_adjusted,
+        "heldout_gain": c.heldout_gain, "novelty": c.novelty, "parameters": c.grid_values,
+        "amplitudes": {k: {"value": v, "ci95_half_width": w} for k, (v, w) in c.amplitudes.items()},
+    } for c in d.candidates]
+    seg = {k: v for k, v in d.segments.items() if k != "kind"}
+    return {
+        "rms_residual_g": d.rms_residual_g,
+        "noise_floor_g": d.noise_floor_g,
+        "noise_floor_model_g": d.noise_floor_model_g,
+        "heldout_rms_g": d.heldout_rms_g,
+        "effects": [e.name for e in cal.composition.effects],
+        "parameters": params,
+        "missing_effect_detected": bool(d.selected),
+        "selected": [c.effect for c in d.selected],
+        "confidence": d.confidence,
+        "candidates": cands,
+        "aliases": d.aliases,
+        "untestable": d.untestable,
+        "finding": d.finding,
+        "noise_model": {"ar_order": cal.ar.order, "average_s": d.problem.config.average_s},
+        "residual": seg,
+        "samples": d.problem.n,
+        "sample_rate_hz": d.problem.rate_hz,
+        "runs": d.problem.m.runs,
+    }

@@ -1,0 +1,124 @@
+"""Noise model for the diagnosis: block averaging, AR(p) by Yule–Walker, prewhitening, noise floor.
+
+The IIS328DQ residual carries slow correlated noise (bias instability), so every test statistic
+is computed on prewhitened data (diagnosis-methods §0, §1 step 3): AR(p) with p chosen by BIC up
+to 20, prewhitening per run *without dropping the first samples* (power-on transients live there).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import solve_toeplitz
+from scipy.signal import lfilter
+
+
+@dataclass
+class BlockAverager:
+    """Means over blocks of ``k`` samples inside each run (a partial last block is kept)."""
+
+    starts: np.ndarray  # first sample of each block
+    lengths: np.ndarray
+    run_of_block: np.ndarray
+
+    @classmethod
+    def build(cls, run_index: np.ndarray, k: int) -> BlockAverager:
+        k = max(1, int(k))
+        run_index = np.asarray(run_index)
+        edges = np.r_[0, np.flatnonzero(np.diff(run_index)) + 1, run_index.size]
+        starts = np.concatenate([np.arange(a, b, k) for a, b in zip(edges[:-1], edges[1:])])
+        ends = np.r_[starts[1:], run_index.size]
+        return cls(starts, ends - starts, run_index[starts])
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, float)
+        sums = np.add.reduceat(x, self.starts, axis=0)
+        return sums / (self.lengths if x.ndim == 1 else self.lengths[:, None])
+
+
+@dataclass
+class ARModel:
+    """x[t] = Σ a_i x[t−i] + e[t], e white with variance ``sigma2``."""
+
+    coefficients: np.ndarray
+    sigma2: float
+
+    @property
+    def order(self) -> int:
+        return int(self.coefficients.size)
+
+    def prewhiten(self, x: np.ndarray, run_index: np.ndarray) -> np.ndarray:
+        """e = x − Σ a_i x[t−i], restarted at each run with zeros before it (start samples kept)."""
+        b = np.r_[1.0, -self.coefficients]
+        x = np.asarray(x, float)
+        out = np.empty_like(x)
+        edges = np.r_[0, np.flatnonzero(np.diff(run_index)) + 1, len(run_index)]
+        for a, z in zip(edges[:-1], edges[1:]):
+            out[a:z] = lfilter(b, [1.0], x[a:z], axis=0)
+        return out
+
+
+def _autocovariance(x: np.ndarray, run_index: np.ndarray, max_lag: int) -> np.ndarray:
+    """Pooled autocovariance over runs (each run demeaned), lags 0..max_lag."""
+    acov = np.zeros(max_lag + 1)
+    n_total = 0
+    edges = np.r_[0, np.flatnonzero(np.diff(run_index)) + 1, len(run_index)]
+    for a, z in zip(edges[:-1], edges[1:]):
+        seg = x[a:z] - x[a:z].mean()
+        n = seg.size
+        if n <= max_lag + 1:
+            continue
+        f = np.fft.rfft(seg, 2 ** int(np.ceil(np.log2(2 * n))))
+        acov += np.fft.irfft(f * np.conj(f))[: max_lag + 1]
+        n_total += n
+    return acov / max(n_total, 1)
+
+
+def fit_ar(x: np.ndarray, run_index: np.ndarray, max_order: int = 20) -> ARModel:
+    """Yule–Walker AR fit with the order chosen by BIC (n ln σ²_p + p ln n)."""
+    x = np.asarray(x, float)
+    n = x.size
+    max_order = int(min(max_order, max(0, n // 10)))
+    acov = _autocovariance(x, run_index, max_order)
+    if acov[0] <= 0:
+        return ARModel(np.zeros(0), float(acov[0]))
+    best = ARModel(np.zeros(0), float(acov[0]))
+    best_bic = n * np.log(acov[0])
+    for p in range(1, max_order + 1):
+        try:
+            a = solve_toeplitz(acov[:p], acov[1 : p + 1])
+        except np.linalg.LinAlgError:
+            break
+        s2 = float(acov[0] - a @ acov[1 : p + 1])
+        if s2 <= 0:
+            break
+        bic = n * np.log(s2) + p * np.log(n)
+        if bic < best_bic:
+            best, best_bic = ARModel(a, s2), bic
+    return best
+
+
+def white_noise_sigma_from_differences(r: np.ndarray, run_index: np.ndarray) -> float:
+    """σ of the white part of a residual from its first differences: √(mean(Δr²)/2).
+
+    Slow structure barely changes between neighbouring samples, so this is the sample-rate noise
+    floor of the data (white + quantisation), robust to the drift still in the residual. Differences
+    beyond 8 robust σ (spikes, steps) are trimmed; a plain MAD would be biased by quantised values.
+    """
+    d = np.diff(np.asarray(r, float))
+    d = d[np.diff(np.asarray(run_index)) == 0]
+    if d.size == 0:
+        return 0.0
+    scale = np.percentile(np.abs(d), 75) / 0.6745 or np.std(d)
+    d = d[np.abs(d) <= 8 * scale] if scale > 0 else d
+    return float(np.sqrt(np.mean(d * d) / 2.0))
+
+
+def allan_deviation(x: np.ndarray, rate_hz: float, n_taus: int = 30):
+    """Overlapping Allan deviation (IEEE 952 / NIST SP 1065) on a log grid of averaging times."""
+    from sim.sensor import allan_deviation as _adev
+
+    n = len(x)
+    taus = np.unique(np.logspace(0, np.log10(max(2, n // 8)), n_taus).astype(int)) / rate_hz
+    return _adev(x, rate_hz, taus)
