@@ -257,6 +257,86 @@ def effects(
     _emit_json({"effects": table}, json_out)
 
 
+@app.command()
+def export(
+    dataset: Annotated[Path, typer.Argument(help="HDF5 dataset from twin run")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="canonical CSV to write")],
+    json_out: JsonOpt = None,
+) -> None:
+    """Write a dataset's logged columns as canonical CSV (time_s, temperature_c, output_g, applied_g,
+    run, power_on) - the measurement a lab would have, without the truth."""
+    from twin.measurement import read_dataset_blind, write_canonical_csv
+
+    try:
+        m = read_dataset_blind(dataset)
+        write_canonical_csv(output, m.time_s, m.temperature_c, m.output_g, m.applied_g, m.run_index, m.power_on)
+    except TwinError as exc:
+        _fail(str(exc))
+    result = {"output": str(output), "rows": len(m), "runs": m.runs}
+    if json_out != "-":
+        typer.echo(f"wrote {output}: {len(m)} rows, {m.runs} run(s)")
+    _emit_json(result, json_out)
+
+
+@app.command()
+def compare(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML: its twin, device.sensor and test_plan")],
+    measurements: Annotated[list[Path], typer.Argument(help="measurement file(s): canonical CSV, any log with a column map, or a twin HDF5 (read blind); several files = several runs")],
+    with_effect: Annotated[Optional[list[str]], typer.Option("--with-effect", help="add this effect to the twin (repeatable)")] = None,
+    report: Annotated[Optional[Path], typer.Option("--report", help="write report.html and the ledger into DIR")] = None,
+    applied_g: Annotated[str, typer.Option("--applied-g", help="acceleration along the axis when not logged [g], or 'unknown'")] = "1",
+    columns: Annotated[Optional[Path], typer.Option("--columns", help="column-map YAML for real logs")] = None,
+    time_col: Annotated[Optional[str], typer.Option(help="time column (name or 0-based index)")] = None,
+    temperature_col: Annotated[Optional[str], typer.Option(help="temperature column")] = None,
+    output_col: Annotated[Optional[str], typer.Option(help="acceleration column")] = None,
+    time_unit: Annotated[Optional[str], typer.Option(help="s, ms, us, min, h")] = None,
+    temperature_unit: Annotated[Optional[str], typer.Option(help="C or K")] = None,
+    output_unit: Annotated[Optional[str], typer.Option(help="g, mg, m/s^2, digits")] = None,
+    output_scale: Annotated[Optional[float], typer.Option(help="multiply the output after unit conversion")] = None,
+    skip_lines: Annotated[Optional[int], typer.Option(min=0, help="banner lines to skip")] = None,
+    delimiter: Annotated[Optional[str], typer.Option(help="column delimiter (default: sniffed)")] = None,
+    no_header: Annotated[bool, typer.Option("--no-header", help="the file has no header line (columns by index)")] = False,
+    skip_bad_rows: Annotated[bool, typer.Option("--skip-bad-rows", help="skip corrupted rows and report how many")] = False,
+    average_s: Annotated[float, typer.Option(min=0.1, help="screening block average [s]")] = 10.0,
+    json_out: JsonOpt = None,
+) -> None:
+    """Compare the twin with a measurement: calibrate, show where it fails, name the missing effect."""
+    from twin.compare import run_compare
+    from twin.measurement import ColumnMap
+
+    try:
+        cmap = ColumnMap.from_yaml(columns) if columns else ColumnMap()
+        overrides = {"time": time_col, "temperature": temperature_col, "output": output_col, "time_unit": time_unit,
+                     "temperature_unit": temperature_unit, "output_unit": output_unit, "output_scale": output_scale,
+                     "skip_lines": skip_lines, "delimiter": delimiter}
+        for key, value in overrides.items():
+            if value is not None:
+                setattr(cmap, key, value)
+        if no_header:
+            cmap.header = False
+        if applied_g != "unknown":
+            try:
+                applied = float(applied_g)
+            except ValueError:
+                raise TwinError(f"--applied-g expects a number in g or 'unknown', got {applied_g!r}") from None
+        else:
+            applied = "unknown"
+        result, _ = run_compare(scenario, measurements, cmap, with_effect or [], applied, skip_bad_rows, average_s,
+                                report, json_out)
+    except TwinError as exc:
+        _fail(str(exc))
+    if json_out != "-":
+        typer.echo(result["finding"])
+        typer.echo(f"residual RMS {result['rms_residual_g'] * 1e3:.3f} mg, noise floor {result['noise_floor_g'] * 1e3:.3f} mg, "
+                   f"missing effect: {result['missing_effect_detected']} ({result['confidence']})")
+        for c in result["candidates"][:5]:
+            typer.echo(f"  {c['effect']:<20} {c['family']:<13} {'significant' if c['significant'] else '-':<12} "
+                       f"ΔBIC {c['delta_bic']:9.1f}  gain {100 * c['heldout_gain']:5.1f} %  RMS after {c['rms_residual_g'] * 1e3:.3f} mg")
+        if report:
+            typer.echo(f"report: {report / 'report.html'}")
+    _emit_json(result, json_out)
+
+
 def main() -> None:
     """Console entry point: usage errors and our errors exit 2 with one line."""
     try:

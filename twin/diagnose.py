@@ -106,13 +106,17 @@ def _run_slices(run_index: np.ndarray) -> list[slice]:
     return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
 
 
-def _design(problem: Problem, comp: Composition) -> tuple[np.ndarray, list[tuple[str, str]], np.ndarray, EffectInputs]:
-    """Full-rate columns of the model's free amplitudes, their names, the fixed part, the inputs."""
+def _design(problem: Problem, comp: Composition, pinned: frozenset = frozenset()
+            ) -> tuple[np.ndarray, list[tuple[str, str]], np.ndarray, EffectInputs]:
+    """Full-rate columns of the model's free amplitudes, their names, the fixed part, the inputs.
+
+    ``pinned`` amplitudes (exactly aliased ones) are held at their current values.
+    """
     inputs = comp.with_die_temperature(problem.inputs)
     cols, names = [], []
     fixed = np.zeros(problem.n)
     for e in comp.drift_effects:
-        free = {p.name for p in e.parameters if p.role == "amplitude" and p.free}
+        free = {p.name for p in e.parameters if p.role == "amplitude" and p.free and (e.name, p.name) not in pinned}
         for amp, contrib in e.basis(inputs).items():
             col = np.broadcast_to(contrib.output_g(problem.applied), (problem.n,)).astype(float)
             if amp in free:
@@ -149,6 +153,7 @@ class Calibration:
     residual: np.ndarray  # full rate
     residual_avg: np.ndarray
     nonlinear_ci: dict[tuple[str, str], tuple[float, float]] = field(default_factory=dict)
+    pinned: list[tuple[tuple[str, str], str]] = field(default_factory=list)  # (effect, amplitude), partner
 
     @property
     def prediction_minus_applied(self) -> np.ndarray:
@@ -168,8 +173,8 @@ def _fit_linear(A: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) ->
     return x / scale
 
 
-def _rss_for(problem: Problem, comp: Composition) -> float:
-    X, names, fixed, _ = _design(problem, comp)
+def _rss_for(problem: Problem, comp: Composition, pinned: frozenset = frozenset()) -> float:
+    X, names, fixed, _ = _design(problem, comp, pinned)
     A = problem.avg(np.column_stack([problem.nuisance, X]))
     b = problem.avg(problem.y - fixed)
     lo, hi = _bounds(comp, names, problem.nuisance.shape[1])
@@ -193,28 +198,48 @@ def _with(comp: Composition, i: int, name: str, value: float) -> Composition:
     return Composition(effects)
 
 
+def _exact_aliases(problem: Problem, comp: Composition) -> list[tuple[tuple[str, str], str]]:
+    """Free amplitudes whose column the others (and the offsets) reproduce exactly; each is
+    pinned at its current value, later effects first, and named with its partner."""
+    X, names, _, _ = _design(problem, comp)
+    A = problem.avg(np.column_stack([problem.nuisance, X]))
+    labels = problem.nuisance_names + [f"{e}.{a}" for e, a in names]
+    nn = problem.nuisance.shape[1]
+    keep = list(range(A.shape[1]))
+    out = []
+    for j in range(A.shape[1] - 1, nn - 1, -1):
+        others = [k for k in keep if k != j]
+        if _novelty(A[:, [j]], _orthonormal(A[:, others])) < 1e-6:
+            corr = [abs(np.corrcoef(A[:, j], A[:, k])[0, 1]) if np.std(A[:, k]) > 0 else 0.0 for k in others]
+            out.append((names[j - nn], labels[others[int(np.argmax(corr))]] if corr else "the offsets"))
+            keep.remove(j)
+    return out
+
+
 def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | None = None) -> Calibration:
     """Fit the model's free parameters to the measurement (see module docstring)."""
     config = config or problem.config
+    aliases = _exact_aliases(problem, comp)
+    pinned = frozenset(name for name, _ in aliases)
     slots = _nonlinear_slots(comp)
     for _ in range(2 if len(slots) > 1 else 1):
         for i, pname in slots:
             param = next(p for p in comp.effects[i].parameters if p.name == pname)
             grid = sorted(set(param.grid) | {comp.effects[i].values[pname]})
-            rss = [_rss_for(problem, _with(comp, i, pname, v)) for v in grid]
+            rss = [_rss_for(problem, _with(comp, i, pname, v), pinned) for v in grid]
             k = int(np.argmin(rss))
             lo = grid[max(k - 1, 0)]
             hi = grid[min(k + 1, len(grid) - 1)]
             lo, hi = max(lo, param.bounds[0]), min(hi, param.bounds[1])
             best = grid[k]
             if hi > lo:
-                res = minimize_scalar(lambda lv: _rss_for(problem, _with(comp, i, pname, float(np.exp(lv)))),
+                res = minimize_scalar(lambda lv: _rss_for(problem, _with(comp, i, pname, float(np.exp(lv))), pinned),
                                       bounds=(np.log(max(lo, 1e-9)), np.log(hi)), method="bounded",
                                       options={"xatol": 1e-3})
                 if res.fun <= rss[k]:
                     best = float(np.exp(res.x))
             comp = _with(comp, i, pname, best)
-    X, names, fixed, inputs = _design(problem, comp)
+    X, names, fixed, inputs = _design(problem, comp, pinned)
     X_full = np.column_stack([problem.nuisance, X])
     A = problem.avg(X_full)
     b = problem.avg(problem.y - fixed)
@@ -236,32 +261,45 @@ def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | Non
     comp = Composition(effects)
     residual = problem.y - X_full @ beta - fixed
     cal = Calibration(comp, names, beta, cov, ar, X_full, fixed, inputs, residual, r_avg)
-    cal.nonlinear_ci = _profile_ci(problem, comp, ar, slots)
+    cal.nonlinear_ci = _profile_ci(problem, comp, ar, slots, pinned)
+    cal.pinned = aliases
     return cal
 
 
-def _profile_ci(problem: Problem, comp: Composition, ar: ARModel, slots) -> dict:
+def _profile_ci(problem: Problem, comp: Composition, ar: ARModel, slots, pinned: frozenset = frozenset()) -> dict:
     """95 % profile-likelihood interval of each nonlinear parameter: n ln(RSS/RSS_min) ≤ 3.84,
     RSS of the prewhitened averaged fit."""
     out = {}
     for i, pname in slots:
         v0 = comp.effects[i].values[pname]
         lo_b, hi_b = next(p.bounds for p in comp.effects[i].parameters if p.name == pname)
-        grid = np.unique(np.clip(v0 * np.exp(np.linspace(-1.2, 1.2, 25)), lo_b, hi_b))
+        # coarse ±1.2 in log for wide profiles, fine ±10 % for sharp ones
+        steps = np.r_[np.linspace(-1.2, 1.2, 25), np.linspace(-0.1, 0.1, 21)]
+        grid = np.unique(np.clip(v0 * np.exp(steps), lo_b, hi_b))
         rss = []
         for v in grid:
             c = _with(comp, i, pname, float(v))
-            X, names, fixed, _ = _design(problem, c)
+            X, names, fixed, _ = _design(problem, c, pinned)
             A = problem.avg(np.column_stack([problem.nuisance, X]))
             b = problem.avg(problem.y - fixed)
             Aw, bw = ar.prewhiten(A, problem.run_avg), ar.prewhiten(b, problem.run_avg)
             beta = np.linalg.lstsq(Aw, bw, rcond=None)[0]
             r = bw - Aw @ beta
             rss.append(float(r @ r))
-        rss = np.array(rss)
         n = problem.run_avg.size
-        inside = grid[n * np.log(rss / rss.min()) <= 3.84]
-        out[(comp.effects[i].name, pname)] = (float(inside.min()), float(inside.max()))
+        stat = n * np.log(np.array(rss) / min(rss))  # likelihood-ratio statistic, χ²(1) under H0
+        k0 = int(np.argmin(stat))
+
+        def crossing(ks):  # first grid step where the statistic passes 3.84, linearly interpolated
+            for a, b in zip(ks[:-1], ks[1:]):
+                if stat[b] > 3.84:
+                    f = (3.84 - stat[a]) / (stat[b] - stat[a])
+                    return float(grid[a] + f * (grid[b] - grid[a]))
+            return float(grid[ks[-1]])
+
+        lo_ci = crossing(list(range(k0, -1, -1))) if k0 > 0 else float(grid[0])
+        hi_ci = crossing(list(range(k0, grid.size))) if k0 < grid.size - 1 else float(grid[-1])
+        out[(comp.effects[i].name, pname)] = (lo_ci, hi_ci)
     return out
 
 
@@ -605,12 +643,13 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
         fams = sorted({get_effect(e).family for e in g})
         aliases.append({"effects": sorted(g), "families": fams,
                         "remedy": "; ".join(REMEDY.get(f, "") for f in fams if REMEDY.get(f))})
-    model_aliased = []
+    model_aliased = [{"effect": e, "parameter": a, "novelty": 0.0, "aliased_with": partner, "pinned": True}
+                     for (e, a), partner in cal.pinned]
     for a in _novelty_of_model(problem, cal, cfg):
         if all(a["effect"] != b["effect"] for b in model_aliased):
             model_aliased.append(a)
     confounded = [a for a in model_aliased if a["aliased_with"].startswith("offset_run")]
-    for a in model_aliased:
+    for a in {a["effect"]: a for a in reversed(model_aliased)}.values():
         aliases.append({"effects": [a["effect"]], "families": [get_effect(a["effect"]).family],
                         "aliased_with": a["aliased_with"],
                         "remedy": ("the temperature is nearly constant within each run and the runs differ in "
@@ -684,15 +723,17 @@ def finding_text(d: Diagnosis) -> str:
     else:
         parts.append(f"No missing effect found: residual RMS {_fmt_mg(rms)} against a noise floor of "
                      f"{_fmt_mg(d.noise_floor_g)}.")
+    remedies: dict[str, list[str]] = {}
+    top_effects = {c.effect for c in d.selected}
     for a in d.aliases:
-        if "aliased_with" in a:
-            parts.append(f"{a['effects'][0]} cannot be estimated from this data (aliased with {a['aliased_with']}): "
-                         f"{a['remedy']}.")
-        else:
-            parts.append(f"Cannot be separated with this test: {', '.join(a['effects'])}; {a['remedy']}.")
+        if "aliased_with" in a or top_effects & set(a["effects"]):
+            remedies.setdefault(a["remedy"], []).append(" / ".join(a["effects"]) +
+                                                        (f" (with {a['aliased_with']})" if "aliased_with" in a else ""))
     for u in d.untestable:
         if u["family"] in ("scale_factor", "probe"):
-            parts.append(f"Untestable here: {u['effect']} ({u['reason']}); {u['remedy']}.")
+            remedies.setdefault(u["remedy"], []).append(u["effect"])
+    for remedy, what in remedies.items():
+        parts.append(f"Not separable or not testable with this data: {', '.join(dict.fromkeys(what))}. To fix: {remedy}.")
     return " ".join(parts)
 
 
@@ -712,8 +753,12 @@ def result_json(d: Diagnosis) -> dict:
                 item["ci95"] = [v - half, v + half]
             if (e.name, p.name) in cal.nonlinear_ci:
                 item["ci95"] = list(cal.nonlinear_ci[(e.name, p.name)])
+            partner = next((pt for (en, an), pt in cal.pinned if (en, an) == (e.name, p.name)), None)
+            if partner is not None:
+                item["pinned"] = f"held at its default: aliased with {partner} in this data"
             lo, hi = p.bounds
-            item["on_bound"] = bool(p.free and p.role != "fixed" and (np.isclose(v, lo, rtol=1e-6, atol=1e-12)
+            fitted = (e.name, p.name) in cal.names or (e.name, p.name) in cal.nonlinear_ci
+            item["on_bound"] = bool(fitted and (np.isclose(v, lo, rtol=1e-6, atol=1e-12)
                                                                        or np.isclose(v, hi, rtol=1e-6, atol=1e-12)))
             item["outside_physical_range"] = bool(not lo <= v <= hi)
             entry[p.name] = item

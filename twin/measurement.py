@@ -151,7 +151,7 @@ def _read_table(path: Path, cmap: ColumnMap, skip_bad_rows: bool):
         sep = "\t" if "\t" in sample else ";" if sample.count(";") > sample.count(",") else "," if "," in sample else r"\s+"
     try:
         df = pd.read_csv(path, sep=sep, skiprows=cmap.skip_lines, header=0 if cmap.header else None,
-                         dtype=str, keep_default_na=False, engine="c" if sep != r"\s+" else "python",
+                         engine="c" if sep != r"\s+" else "python",
                          on_bad_lines="skip" if skip_bad_rows else "error", skipinitialspace=True)
     except pd.errors.ParserError as exc:
         raise MeasurementError(f"{path}: {exc} (use --skip-bad-rows to skip such lines)") from None
@@ -187,7 +187,10 @@ def _numeric(series) -> tuple[np.ndarray, np.ndarray]:
     """Values as floats and a mask of the rows that are not finite numbers."""
     import pandas as pd
 
-    values = pd.to_numeric(series.str.strip() if series.dtype == object else series, errors="coerce").to_numpy(float)
+    if series.dtype.kind in "fiub":  # parsed as numbers by the C parser: nothing to coerce
+        values = series.to_numpy(float)
+    else:
+        values = pd.to_numeric(series.astype(str).str.strip(), errors="coerce").to_numpy(float)
     return values, ~np.isfinite(values)
 
 

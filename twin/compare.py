@@ -1,0 +1,70 @@
+"""``twin compare``: the blind compare → diagnose → report loop on files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from sim.sensor import logger_white_sigma_g
+from twin.diagnose import DiagnosisConfig, Problem, diagnose, result_json
+from twin.effects import Composition, get_effect
+from twin.errors import ModelError, TwinError
+from twin.measurement import ColumnMap, Measurement, load_measurements
+from twin.scenario import LoadedScenario, load_scenario
+
+
+def sensor_noise_floor_g(loaded: LoadedScenario, rate_hz: float) -> float | None:
+    """Per-sample noise σ of the scenario's sensor at the measurement's rate: white, quantisation
+    (LSB/√12) and bias instability in quadrature."""
+    sensor = loaded.sensor()
+    tp = loaded.scenario.test_plan
+    try:
+        white = logger_white_sigma_g(sensor, min(rate_hz, sensor.odr_hz), tp.logger_mode)
+    except ValueError:
+        return None
+    lsb = sensor.sensitivity_mg_per_digit * 1e-3
+    return float(np.sqrt(white**2 + lsb**2 / 12 + (sensor.bias_instability_mg * 1e-3) ** 2))
+
+
+def twin_model(loaded: LoadedScenario, with_effects: list[str]) -> Composition:
+    """The scenario's ``twin.effects`` plus ``--with-effect`` names (never ``device.effects``)."""
+    comp = loaded.twin_composition()
+    ctx = {"geometry": loaded.geometry()}
+    present = [e.name for e in comp.effects]
+    for name in with_effects:
+        try:
+            cls = get_effect(name)
+        except ModelError as exc:
+            raise TwinError(f"--with-effect: {exc}") from None
+        if name not in present:
+            comp = Composition(comp.effects + [cls(ctx)])
+            present.append(name)
+    return comp
+
+
+def compare_measurement(loaded: LoadedScenario, m: Measurement, with_effects: list[str], average_s: float = 10.0):
+    cfg = DiagnosisConfig(average_s=average_s)
+    problem = Problem(m, cfg, loaded.sensor())
+    d = diagnose(problem, twin_model(loaded, with_effects), sensor_noise_floor_g(loaded, m.sample_rate_hz))
+    result = result_json(d)
+    result["measurement"] = {"files": m.sources, "bad_rows_skipped": m.bad_rows_skipped, "notes": m.notes,
+                             "applied_known": m.applied_known}
+    return d, result
+
+
+def run_compare(scenario: Path, measurements: list[Path], cmap: ColumnMap, with_effects: list[str], applied,
+                skip_bad_rows: bool, average_s: float, report: Path | None, json_out: str | None):
+    loaded = load_scenario(scenario)
+    m = load_measurements(measurements, cmap, skip_bad_rows=skip_bad_rows, applied_g=applied)
+    d, result = compare_measurement(loaded, m, with_effects, average_s)
+    ledger_dir = report if report is not None else (Path(json_out).parent if json_out not in (None, "-") else None)
+    if ledger_dir is not None:
+        from twin.report import append_ledger, write_report
+
+        ledger = append_ledger(ledger_dir, d, result)
+        result["ledger"] = [{k: e[k] for k in ("model", "rms_residual_g", "heldout_rms_g", "noise_floor_g", "delta_bic")}
+                            for e in ledger]
+        if report is not None:
+            write_report(report, d, result, ledger, title=f"twin compare: {', '.join(p.name for p in measurements)}")
+    return result, d
