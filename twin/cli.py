@@ -296,6 +296,7 @@ def compare(
     skip_lines: Annotated[Optional[int], typer.Option(min=0, help="banner lines to skip")] = None,
     delimiter: Annotated[Optional[str], typer.Option(help="column delimiter (default: sniffed)")] = None,
     no_header: Annotated[bool, typer.Option("--no-header", help="the file has no header line (columns by index)")] = False,
+    sample_rate_hz: Annotated[Optional[float], typer.Option(min=0, help="sample rate for logs without a time column [Hz]")] = None,
     skip_bad_rows: Annotated[bool, typer.Option("--skip-bad-rows", help="skip corrupted rows and report how many")] = False,
     average_s: Annotated[float, typer.Option(min=0.1, help="screening block average [s]")] = 10.0,
     json_out: JsonOpt = None,
@@ -314,6 +315,8 @@ def compare(
                 setattr(cmap, key, value)
         if no_header:
             cmap.header = False
+        if sample_rate_hz is not None:
+            cmap.sample_rate_hz, cmap.time = sample_rate_hz, None
         if applied_g != "unknown":
             try:
                 applied = float(applied_g)

@@ -400,6 +400,33 @@ def _heldout_sse(A: np.ndarray, b: np.ndarray, folds: np.ndarray) -> float:
     return float(e @ e)
 
 
+def _test_candidate(problem: Problem, J: np.ndarray, y: np.ndarray, X: np.ndarray, max_order: int):
+    """GLS test of X on top of J, the AR noise model estimated under the alternative.
+
+    Fitting the AR model to the base residual would let it learn a large missing effect and
+    whiten it away; estimated from the residual of J + X it describes the noise that remains.
+    Returns (delta_bic, F p-value, ERR, coefficients, their 95 % half-widths).
+    """
+    A1 = np.column_stack([J, X])
+    r1 = y - A1 @ np.linalg.lstsq(A1, y, rcond=None)[0]
+    ar = fit_ar(r1, problem.run_avg, max_order)
+    runs = problem.run_avg
+    Jw, Xw, yw = ar.prewhiten(J, runs), ar.prewhiten(X, runs), ar.prewhiten(y, runs)
+    Q = _orthonormal(Jw)
+    r0 = yw - Q @ (Q.T @ yw)
+    Xp = Xw - Q @ (Q.T @ Xw)
+    rss0 = float(r0 @ r0)
+    coef = np.linalg.lstsq(Xp, r0, rcond=None)[0]
+    fit = Xp @ coef
+    rss1 = max(rss0 - float(fit @ fit), 1e-300)
+    n, q, m = yw.size, Q.shape[1], X.shape[1]
+    dof = max(1, n - q - m)
+    F = ((rss0 - rss1) / m) / (rss1 / dof)
+    cov = rss1 / dof * np.linalg.pinv(Xp.T @ Xp)
+    half = 1.96 * np.sqrt(np.clip(np.diag(cov), 0, None))
+    return float(n * np.log(rss0 / rss1) - m * np.log(n)), float(stats.f.sf(F, m, dof)), 1 - rss1 / rss0, coef, half
+
+
 def screen(problem: Problem, cal: Calibration, candidates: list[str], extra: np.ndarray | None = None,
            n_tests: int | None = None) -> list[CandidateResult]:
     """Screen ``candidates`` on top of the calibrated model (plus ``extra`` full-rate columns)."""
@@ -407,12 +434,6 @@ def screen(problem: Problem, cal: Calibration, candidates: list[str], extra: np.
     J_full = cal.X_full if extra is None else np.column_stack([cal.X_full, extra])
     J = problem.avg(J_full)
     y_avg = problem.avg(problem.y - cal.fixed_full)
-    ar = cal.ar
-    Jw, yw = ar.prewhiten(J, problem.run_avg), ar.prewhiten(y_avg, problem.run_avg)
-    Q = _orthonormal(Jw)
-    r0 = yw - Q @ (Q.T @ yw)
-    rss0 = float(r0 @ r0)
-    n, q = yw.size, Q.shape[1]
     folds = _cv_folds(problem)
     Qraw = _orthonormal(J)
     if n_tests is None:
@@ -424,26 +445,14 @@ def screen(problem: Problem, cal: Calibration, candidates: list[str], extra: np.
         for g in cls.grid():
             X_full, amp_names = _screen_columns(problem, cal, cls, g)
             X = problem.avg(X_full)
-            Xw = ar.prewhiten(X, problem.run_avg)
-            Xp = Xw - Q @ (Q.T @ Xw)
-            m = X.shape[1]
-            norm = np.linalg.norm(Xp, axis=0)
             novelty = _novelty(X, Qraw)
-            if np.all(norm < 1e-12 * max(1.0, np.linalg.norm(Xw))) or novelty < 1e-9:
+            if novelty < 1e-9:
                 res = CandidateResult(name, cls.family, g, 0.0, 1.0, 1.0, 0.0, 0.0, novelty, {}, X_full)
             else:
-                coef, *_ = np.linalg.lstsq(Xp, r0, rcond=None)
-                fit = Xp @ coef
-                rss1 = max(rss0 - float(fit @ fit), 1e-300)
-                dof = max(1, n - q - m)
-                F = ((rss0 - rss1) / m) / (rss1 / dof)
-                p = float(stats.f.sf(F, m, dof))
-                dbic = float(n * np.log(rss0 / rss1) - m * np.log(n))
-                s2 = rss1 / dof
-                cov = s2 * np.linalg.pinv(Xp.T @ Xp)
-                amps = {a: (float(coef[j]), float(1.96 * np.sqrt(max(cov[j, j], 0.0)))) for j, a in enumerate(amp_names)}
-                res = CandidateResult(name, cls.family, g, dbic, p, min(1.0, p * n_tests), 1 - rss1 / rss0, 0.0,
-                                      novelty, amps, X_full)
+                dbic, p, err, coef, half = _test_candidate(problem, J, y_avg, X, cfg.max_ar_order)
+                amps = {a: (float(coef[j]), float(half[j])) for j, a in enumerate(amp_names)}
+                res = CandidateResult(name, cls.family, g, dbic, p, min(1.0, p * n_tests), err, 0.0, novelty, amps,
+                                      X_full)
             if best is None or res.delta_bic > best.delta_bic:
                 best = res
         if best.delta_bic > 0:
@@ -649,6 +658,22 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
         if all(a["effect"] != b["effect"] for b in model_aliased):
             model_aliased.append(a)
     confounded = [a for a in model_aliased if a["aliased_with"].startswith("offset_run")]
+    m = problem.m
+    if m.runs > 1 and not m.applied_known:
+        temp = problem.inputs.die_c
+        spans = [np.percentile(temp[s], 95) - np.percentile(temp[s], 5) for s in _run_slices(m.run_index)]
+        medians = [np.median(temp[s]) for s in _run_slices(m.run_index)]
+        between = max(medians) - min(medians)
+        if between > 0 and max(spans) < 0.25 * between:
+            entry = {"effects": ["orientation", "static_bias_tc"], "families": ["bias_tc"],
+                     "aliased_with": "per-run offsets",
+                     "remedy": (f"each run sits at a nearly constant temperature (within-run span ≤ {max(spans):.1f} °C, "
+                                f"{between:.1f} °C between runs) and the orientation is not logged, so the per-run "
+                                "offsets absorb gravity projection and temperature together: this data cannot separate "
+                                "orientation from temperature; log the orientation, or ramp the temperature within a run "
+                                "in a fixed orientation")}
+            aliases.insert(0, entry)
+            confounded.append(entry)
     for a in {a["effect"]: a for a in reversed(model_aliased)}.values():
         aliases.append({"effects": [a["effect"]], "families": [get_effect(a["effect"]).family],
                         "aliased_with": a["aliased_with"],
@@ -702,7 +727,8 @@ def _fmt_mg(x_g: float) -> str:
 def finding_text(d: Diagnosis) -> str:
     """A plain-language finding for the report and the CLI."""
     rms = d.rms_residual_g
-    parts = []
+    parts = [f"This data cannot separate {' from '.join(a['effects'])}: {a['remedy']}." for a in d.aliases
+             if a.get("aliased_with") == "per-run offsets"]
     if d.selected:
         top = d.selected[0]
         sig = _SIGNATURE.get(top.family, f"The residual has the signature of {top.family}")
@@ -723,9 +749,14 @@ def finding_text(d: Diagnosis) -> str:
     else:
         parts.append(f"No missing effect found: residual RMS {_fmt_mg(rms)} against a noise floor of "
                      f"{_fmt_mg(d.noise_floor_g)}.")
+        if rms > 1.5 * d.noise_floor_g:
+            parts.append(f"The residual is {rms / d.noise_floor_g:.1f}× the white-noise floor: slow correlated noise "
+                         "or structure outside the library remains (see the Allan deviation and dwell plots).")
     remedies: dict[str, list[str]] = {}
     top_effects = {c.effect for c in d.selected}
     for a in d.aliases:
+        if a.get("aliased_with") == "per-run offsets":
+            continue
         if "aliased_with" in a or top_effects & set(a["effects"]):
             remedies.setdefault(a["remedy"], []).append(" / ".join(a["effects"]) +
                                                         (f" (with {a['aliased_with']})" if "aliased_with" in a else ""))

@@ -143,14 +143,21 @@ def _read_table(path: Path, cmap: ColumnMap, skip_bad_rows: bool):
 
     if not path.is_file():
         raise MeasurementError(f"{path}: measurement file not found")
+    with path.open("r", errors="replace") as f:
+        lines = [f.readline() for _ in range(cmap.skip_lines + 50)][cmap.skip_lines:]
     sep = cmap.delimiter
     if sep is None:
-        with path.open("r", errors="replace") as f:
-            lines = [f.readline() for _ in range(cmap.skip_lines + 3)][cmap.skip_lines:]
-        sample = "".join(lines)
+        sample = "".join(lines[:3])
         sep = "\t" if "\t" in sample else ";" if sample.count(";") > sample.count(",") else "," if "," in sample else r"\s+"
+    names = None
+    if not cmap.header:
+        # the most common field count, so one truncated first row does not set the width
+        import re
+
+        counts = [len(re.split(sep, ln.strip())) if sep == r"\s+" else ln.count(sep) + 1 for ln in lines if ln.strip()]
+        names = list(range(max(set(counts), key=counts.count))) if counts else None
     try:
-        df = pd.read_csv(path, sep=sep, skiprows=cmap.skip_lines, header=0 if cmap.header else None,
+        df = pd.read_csv(path, sep=sep, skiprows=cmap.skip_lines, header=0 if cmap.header else None, names=names,
                          engine="c" if sep != r"\s+" else "python",
                          on_bad_lines="skip" if skip_bad_rows else "error", skipinitialspace=True)
     except pd.errors.ParserError as exc:
