@@ -446,7 +446,7 @@ def screen(problem: Problem, cal: Calibration, candidates: list[str], extra: np.
             X_full, amp_names = _screen_columns(problem, cal, cls, g)
             X = problem.avg(X_full)
             novelty = _novelty(X, Qraw)
-            if novelty < 1e-9:
+            if novelty < 1e-6:  # what is left is round-off: regressing on it would be noise
                 res = CandidateResult(name, cls.family, g, 0.0, 1.0, 1.0, 0.0, 0.0, novelty, {}, X_full)
             else:
                 dbic, p, err, coef, half = _test_candidate(problem, J, y_avg, X, cfg.max_ar_order)
@@ -468,7 +468,9 @@ def screen(problem: Problem, cal: Calibration, candidates: list[str], extra: np.
                                 and best.heldout_gain > cfg.min_heldout_gain and cls.identifiable
                                 and best.novelty >= cfg.alias_novelty)
         results.append(best)
-    results.sort(key=lambda r: r.delta_bic, reverse=True)
+    # what the data can test ranks before what it cannot, then by evidence
+    results.sort(key=lambda r: (r.novelty >= cfg.alias_novelty and get_effect(r.effect).identifiable, r.delta_bic),
+                 reverse=True)
     return results
 
 

@@ -208,11 +208,15 @@ class TestPlanSection(_Section):
     power_on_s: list[NonNegativeFloat] = Field(default_factory=lambda: [0.0], description="power-on times in each run [s]")
     runs: int = Field(1, ge=1, description="independent runs of the program (same device, new noise)")
     tumble: TumbleSection | None = Field(None, description="cyclic orientation blocks, instead of orientations")
+    run_applied_g: list[float] | None = Field(None, min_length=1,
+                                              description="one constant orientation per run, cycling (e.g. [1, -1])")
 
     @model_validator(mode="after")
     def _one_orientation_source(self) -> TestPlanSection:
-        if self.tumble is not None and "orientations" in self.model_fields_set:
-            raise ValueError("give either orientations or tumble, not both")
+        given = [k for k in ("orientations", "tumble", "run_applied_g")
+                 if k in self.model_fields_set and getattr(self, k) is not None]
+        if len(given) > 1:
+            raise ValueError(f"give one of orientations, tumble, run_applied_g; got {', '.join(given)}")
         return self
 
     def orientation_schedule(self, duration_s: float) -> tuple[list[float], list[float]]:

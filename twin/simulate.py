@@ -93,6 +93,8 @@ def simulate(
     probe = replace(thermometer, offset_c=thermometer.offset_c + composition.thermometer_shift_c())
     thermo = np.concatenate([read_thermometer(t_run, th.probe_c, probe, rng_thermo) for _ in range(runs)])
     applied = tile(_step_schedule(t_run, *tp.orientation_schedule(t_run[-1])))
+    if tp.run_applied_g:
+        applied = np.repeat([tp.run_applied_g[r % len(tp.run_applied_g)] for r in range(runs)], n_run).astype(float)
     flag, since = _power_on(t_run, tp.power_on_s)
 
     tick(STAGES[2])
