@@ -1,0 +1,206 @@
+"""Compare / diagnose: hidden effects found on sealed CSVs, null controls, real logs, contract."""
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, SHARED, run_cli
+from twin.compare import compare_measurement
+from twin.hidden import draw_case
+from twin.measurement import MeasurementError, load_measurements
+
+SEEDS = range(2000, 2020)  # 20 seeds per case (the Monte-Carlo benchmark runs 200)
+
+# one sealed case per family, each generated with a different form than the candidate uses
+FAMILY_CASES = {
+    "thermal_lag": "thermal_lag_2node",  # two RC nodes vs the one-node candidate
+    "hysteresis": "creep_2term",  # two-term Prony creep vs one term
+    "scale_factor": "scale_factor",  # ±1 g runs
+    "aging": "aging",
+    "warmup": "warmup",  # τ drawn off the grid
+}
+
+
+def _compare_csv(tmp_path, case, *extra):
+    csv = case.write_csv(tmp_path)
+    scn = tmp_path / "twin.yaml"
+    scn.write_text(case.twin.text)
+    r = run_cli("compare", str(scn), str(csv), "--json", "-", *extra)
+    assert r.returncode == 0, r.stderr
+    return json.loads(r.stdout)
+
+
+@pytest.mark.parametrize("family,kind", FAMILY_CASES.items(), ids=list(FAMILY_CASES))
+def test_sealed_csv_right_family_first_and_error_falls_to_noise(tmp_path, family, kind):
+    case = draw_case(kind, seed=77)
+    result = _compare_csv(tmp_path, case)
+    top = result["candidates"][0]
+    assert top["family"] == family and top["significant"], result["finding"]
+    assert result["missing_effect_detected"]
+    after = _compare_csv(tmp_path, case, "--with-effect", top["effect"])
+    assert after["rms_residual_g"] <= 1.10 * case.noise_only_rms_g
+    assert not after["missing_effect_detected"] or after["selected"] != [top["effect"]]
+
+
+def _sweep(kind, level="clear"):
+    out = []
+    for seed in SEEDS:
+        case = draw_case(kind, seed, level)
+        _, result = compare_measurement(case.twin, case.measurement, [])
+        out.append((case, result))
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["thermal_lag", "hysteresis", "scale_factor", "aging", "warmup"])
+def test_clear_cases_right_family_first_in_19_of_20(kind):
+    runs = _sweep(kind)
+    first = sum(r["candidates"][0]["family"] == c.family and r["candidates"][0]["significant"] for c, r in runs)
+    assert first >= 19, [r["candidates"][0]["effect"] for _, r in runs]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["none", "noise_misspecified"])
+def test_null_cases_at_most_1_of_20_false_positives(kind):
+    runs = _sweep(kind)
+    assert sum(r["missing_effect_detected"] for _, r in runs) <= 1
+
+
+def test_single_orientation_scale_factor_is_aliased_not_detected():
+    case = draw_case("scale_factor_one_orientation", seed=5)
+    _, r = compare_measurement(case.twin, case.measurement, [])
+    assert not r["missing_effect_detected"]
+    named = {u["effect"] for u in r["untestable"]} | {e for a in r["aliases"] for e in a["effects"]}
+    assert "scale_factor_tc" in named
+    assert any("orientation" in u["remedy"] for u in r["untestable"] if u["effect"] == "scale_factor_tc")
+
+
+def test_probe_offset_is_listed_untestable():
+    case = draw_case("probe_offset", seed=6)
+    _, r = compare_measurement(case.twin, case.measurement, [])
+    entry = next(u for u in r["untestable"] if u["effect"] == "probe_offset")
+    assert "unidentifiable" in entry["reason"] and "probe" in entry["remedy"]
+    assert "probe_offset" not in r["selected"]
+
+
+def test_two_simultaneous_effects_are_both_selected():
+    case = draw_case("lag_and_scale_factor", seed=8)
+    _, r = compare_measurement(case.twin, case.measurement, [])
+    families = {next(c["family"] for c in r["candidates"] if c["effect"] == e) for e in r["selected"]}
+    assert {"thermal_lag", "scale_factor"} <= families
+
+
+def test_json_contract_and_report(tmp_path):
+    case = draw_case("thermal_lag", seed=9)
+    csv = case.write_csv(tmp_path)
+    scn = tmp_path / "twin.yaml"
+    scn.write_text(case.twin.text)
+    rep = tmp_path / "report"
+    r1 = run_cli("compare", str(scn), str(csv), "--report", str(rep), "--json", str(tmp_path / "a.json"))
+    r2 = run_cli("compare", str(scn), str(csv), "--report", str(rep), "--with-effect", "thermal_lag",
+                 "--json", str(tmp_path / "b.json"))
+    assert r1.returncode == 0 and r2.returncode == 0, r1.stderr + r2.stderr
+    a = json.loads((tmp_path / "a.json").read_text())
+    for key in ("rms_residual_g", "noise_floor_g", "effects", "parameters", "missing_effect_detected", "confidence",
+                "candidates", "aliases", "untestable"):
+        assert key in a
+    for c in a["candidates"]:
+        assert {"effect", "family", "significant", "rms_residual_g", "explained_fraction", "delta_bic", "p_adjusted",
+                "heldout_gain"} <= set(c)
+    b = json.loads((tmp_path / "b.json").read_text())
+    assert [e["model"][-1] for e in b["ledger"]] == ["scale_factor_tc", "thermal_lag"]
+    assert b["ledger"][1]["rms_residual_g"] < b["ledger"][0]["rms_residual_g"] and b["ledger"][1]["delta_bic"] > 10
+    tau = b["parameters"]["thermal_lag"]["tau_s"]
+    assert tau["ci95"][0] <= tau["value"] <= tau["ci95"][1]
+    html = (rep / "report.html").read_text()
+    assert html.count("data:image/png;base64,") >= 5 and "http" not in html.split("<body>")[1]
+    assert "thermal_lag" in html and "Ledger" in html
+
+
+def test_compare_is_blind_to_device_effects_and_truth(tmp_path):
+    # the same HDF5 dataset compared with two scenarios differing only in device.effects
+    r = run_cli("run", "scenarios/hidden_aging.yaml", "-o", str(tmp_path / "d.h5"), "-q")
+    assert r.returncode == 0, r.stderr
+    text = (ROOT / "scenarios/hidden_aging.yaml").read_text()
+    other = tmp_path / "other.yaml"
+    other.write_text(text.replace("aging_drift: {rate_mg_per_h: 0.1}", "warmup: {amplitude_mg: 5.0}"))
+    outs = [json.loads(run_cli("compare", s, str(tmp_path / "d.h5"), "--json", "-").stdout)
+            for s in ("scenarios/hidden_aging.yaml", str(other))]
+    for key in ("rms_residual_g", "selected", "confidence"):
+        assert outs[0][key] == outs[1][key]
+
+
+TOFU = SHARED / "data/real/tofupilot_imu_thermal/imu_raw_data.tsv"
+TOFU_ARGS = ["--time-col", "timestamp", "--time-unit", "us", "--temperature-col", "imu.temperature",
+             "--output-col", "imu.acc.z", "--output-unit", "m/s^2", "--applied-g", "-1"]
+BMI = SHARED / "data/real/bmi270_ganesh"
+BMI_ARGS = ["--no-header", "--skip-lines", "1", "--sample-rate-hz", "50", "--temperature-col", "0", "--output-col", "3",
+            "--output-scale", "4", "--applied-g", "unknown", "--skip-bad-rows"]
+
+
+@pytest.mark.skipif(not TOFU.is_file(), reason="shared real data not present")
+def test_real_tofupilot_loop_names_an_effect_and_the_error_falls():
+    base = json.loads(run_cli("compare", "scenarios/paper_iis328dq.yaml", str(TOFU), *TOFU_ARGS, "--json", "-").stdout)
+    assert base["missing_effect_detected"]
+    top = base["candidates"][0]
+    assert top["family"] in ("thermal_lag", "hysteresis")  # rate-dependent / path-dependent, not a static term
+    after = json.loads(run_cli("compare", "scenarios/paper_iis328dq.yaml", str(TOFU), *TOFU_ARGS,
+                               "--with-effect", top["effect"], "--json", "-").stdout)
+    assert after["rms_residual_g"] < 0.5 * base["rms_residual_g"]
+
+
+@pytest.mark.skipif(not BMI.is_dir(), reason="shared real data not present")
+def test_real_bmi270_soaks_cannot_separate_orientation_from_temperature():
+    files = [str(BMI / "BMI_270_cold_test_.csv"), str(BMI / "BMI_270_hot_test.csv")]
+    r = run_cli("compare", "scenarios/paper_iis328dq.yaml", *files, *BMI_ARGS, "--json", "-")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["confidence"] != "confident" and not out["missing_effect_detected"]
+    assert "cannot separate orientation" in out["finding"]
+    assert out["measurement"]["bad_rows_skipped"] == 2
+    r = run_cli("compare", "scenarios/paper_iis328dq.yaml", *files, *BMI_ARGS[:-1])
+    assert r.returncode == 2 and "line(s) 3258" in r.stderr and "--skip-bad-rows" in r.stderr
+
+
+@pytest.mark.parametrize("text,fragment", [
+    ("time_s,temperature_c,output_g\n0,25,1\n1,25,1\n1,25,1\n" + "".join(f"{k},25,1\n" for k in range(2, 20)),
+     "time is not increasing at row"),
+    ("time_s,temperature_c,output_g\n" + "".join(f"{k},298,1\n" for k in range(20)), "looks like kelvin"),
+    ("time_s,temperature_c,output_g\n" + "".join(f"{k},25,9.8\n" for k in range(20)), "m/s^2"),
+    ("time_s,temperature_c,output_g\n" + "".join(f"{k},25,{'x' if k == 3 else 1}\n" for k in range(20)), "line(s) 5"),
+    ("time,temp,out\n" + "".join(f"{k},25,1\n" for k in range(20)), "no temperature column 'temperature_c'"),
+])
+def test_bad_measurements_get_clear_errors(tmp_path, text, fragment):
+    f = tmp_path / "m.csv"
+    f.write_text(text)
+    with pytest.raises(MeasurementError, match=None) as exc:
+        load_measurements([f])
+    assert fragment in str(exc.value)
+
+
+def test_skip_bad_rows_reports_count(tmp_path):
+    f = tmp_path / "m.csv"
+    f.write_text("time_s,temperature_c,output_g\n" + "".join(f"{k},25,{'x' if k in (3, 7) else 1}\n" for k in range(30)))
+    m = load_measurements([f], skip_bad_rows=True)
+    assert m.bad_rows_skipped == 2 and len(m) == 28
+
+
+def test_column_map_yaml_unknown_key(tmp_path):
+    from twin.measurement import ColumnMap
+
+    f = tmp_path / "map.yaml"
+    f.write_text("time_unit: us\noutput_unt: m/s^2\n")
+    with pytest.raises(MeasurementError, match="did you mean 'output_unit'"):
+        ColumnMap.from_yaml(f)
+
+
+def test_cli_compare_bad_input_exit_2(tmp_path):
+    r = run_cli("compare", "scenarios/paper_iis328dq.yaml", str(tmp_path / "none.csv"))
+    assert r.returncode == 2 and "not found" in r.stderr and "Traceback" not in r.stderr
+    r = run_cli("compare", "scenarios/paper_iis328dq.yaml", str(tmp_path / "none.csv"), "--with-effect", "lagg")
+    assert r.returncode == 2
+    f = tmp_path / "m.csv"
+    f.write_text("time_s,temperature_c,output_g\n" + "".join(f"{k},{25 + k / 10},1\n" for k in range(200)))
+    r = run_cli("compare", "scenarios/paper_iis328dq.yaml", str(f), "--with-effect", "thermal_lagg")
+    assert r.returncode == 2 and "did you mean 'thermal_lag'" in r.stderr
