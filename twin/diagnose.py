@@ -154,6 +154,7 @@ class Calibration:
     residual_avg: np.ndarray
     nonlinear_ci: dict[tuple[str, str], tuple[float, float]] = field(default_factory=dict)
     pinned: list[tuple[tuple[str, str], str]] = field(default_factory=list)  # (effect, amplitude), partner
+    temperature_derivative: np.ndarray | None = None  # cache: ∂(drift)/∂(die temperature)
 
     @property
     def prediction_minus_applied(self) -> np.ndarray:
@@ -332,7 +333,9 @@ def _screen_columns(problem: Problem, cal: Calibration, cls: type[Effect], value
     if eff.slot == "temperature":
         # Linearised: the calibrated model's temperature sensitivity times the lag of the die.
         lagged = eff.die_temperature(problem.inputs)
-        deriv = _temperature_derivative(problem, cal)
+        if cal.temperature_derivative is None:  # the same for every grid point: compute once
+            cal.temperature_derivative = _temperature_derivative(problem, cal)
+        deriv = cal.temperature_derivative
         if np.max(np.abs(deriv)) < 1e-9:
             deriv = np.full(problem.n, 1e-3)
         return (deriv * (lagged - problem.inputs.die_c))[:, None], ["fraction"]

@@ -39,6 +39,26 @@ CASES = {
     "lag_and_scale_factor": "thermal_lag",
 }
 
+#: detectable RMS over σ of the noise on 10-s means (diagnosis-methods §3.1 item 7)
+LEVEL_BANDS = {"clear": (1.5, 3.0), "marginal": (0.5, 1.0), "sub": (0.1, 0.3)}
+#: cases whose hidden term is linear in one amplitude, so the level can be set exactly
+LINEAR_CASES = {"hysteresis", "creep_2term", "scale_factor", "aging", "warmup"}
+
+
+def detectable_ratio(m: Measurement, twin: LoadedScenario, hidden_g: np.ndarray, noise_g: np.ndarray,
+                     average_s: float = 10.0) -> float:
+    """RMS of the hidden term after projecting out what the twin absorbs (offsets, its free
+    amplitudes), over the σ of the noise, both on ``average_s`` means."""
+    from twin.diagnose import DiagnosisConfig, Problem, _design, _orthonormal
+
+    p = Problem(m, DiagnosisConfig(average_s=average_s))
+    X, _, _, _ = _design(p, twin.twin_composition())
+    Q = _orthonormal(p.avg(np.column_stack([p.nuisance, X])))
+    h = p.avg(hidden_g)
+    h = h - Q @ (Q.T @ h)
+    return float(np.sqrt(np.mean(h * h)) / np.std(p.avg(noise_g)))
+
+
 _PROGRAM = {
     "start_c": 25.0,
     "cycles": 1,
@@ -64,6 +84,8 @@ class Case:
     measurement: Measurement
     noise_only_rms_g: float
     twin: LoadedScenario  # the twin's scenario: never holds the hidden effect
+    hidden_g: np.ndarray | None = None  # the hidden term in the output (None where it acts through temperature)
+    noise_g: np.ndarray | None = None
 
     @property
     def file_stem(self) -> str:
@@ -83,8 +105,10 @@ def draw_case(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) 
     """Draw one dataset of ``kind`` (see :data:`CASES`) at ``level`` ('clear' or 'marginal')."""
     if kind not in CASES:
         raise ValueError(f"unknown case {kind!r}; cases: {', '.join(CASES)}")
+    if level not in ("clear", "marginal", "sub"):
+        raise ValueError(f"level must be clear, marginal or sub, got {level!r}")
     rng = np.random.default_rng(np.random.SeedSequence([seed, sum(map(ord, kind)), sum(map(ord, level))]))
-    marginal = level == "marginal"
+    marginal, sub = level == "marginal", level == "sub"
     device = {
         "static_bias_tc": {"tc1_mg_per_c": _u(rng, 0.2, 0.8), "tc2_mg_per_c2": _u(rng, -2e-3, 2e-3)},
         "scale_factor_tc": {"tc1_ppm_per_c": _u(rng, 30, 120)},
@@ -109,7 +133,7 @@ def draw_case(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) 
         lumped.update(board_tau_s=_u(rng, 120, 300), die_tau_s=_u(rng, 20, 60))
         truth.update(board_tau_s=lumped["board_tau_s"], die_tau_s=lumped["die_tau_s"])
     elif kind == "hysteresis":
-        k = _u(rng, 0.06, 0.1) if marginal else _u(rng, 0.2, 0.4)
+        k = _u(rng, 0.015, 0.025) if sub else _u(rng, 0.06, 0.1) if marginal else _u(rng, 0.2, 0.4)
         device["thermal_hysteresis"] = {"k_mg_per_c": k, "half_width_c": _u(rng, 1.5, 5.0)}
         truth.update(device["thermal_hysteresis"])
     elif kind == "creep_2term":
@@ -124,11 +148,11 @@ def draw_case(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) 
         if kind == "scale_factor_one_orientation":
             test_plan["run_applied_g"] = [1.0]
     elif kind == "aging":
-        rate = _u(rng, 0.04, 0.06) if marginal else _u(rng, 0.12, 0.25)
+        rate = _u(rng, 0.01, 0.015) if sub else _u(rng, 0.04, 0.06) if marginal else _u(rng, 0.12, 0.25)
         device["aging_drift"] = {"rate_mg_per_h": rate}
         truth["rate_mg_per_h"] = rate
     elif kind == "warmup":
-        amp = _u(rng, 0.35, 0.5) if marginal else _u(rng, 0.8, 1.6)
+        amp = _u(rng, 0.1, 0.15) if sub else _u(rng, 0.35, 0.5) if marginal else _u(rng, 0.8, 1.6)
         device["warmup"] = {"amplitude_mg": amp * (1 if rng.random() < 0.5 else -1), "tau_s": _u(rng, 40, 250)}
         truth.update(device["warmup"])
     elif kind == "probe_offset":
@@ -136,20 +160,37 @@ def draw_case(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) 
         truth.update(device["probe_offset"])
     elif kind == "noise_misspecified":  # 2x stronger, 3x longer-correlated than nominal
         sensor.update(noise_density_ug_per_sqrt_hz=2 * 218.0, bias_instability_mg=0.1, bias_instability_tau_s=900.0)
+    _AMPLITUDE = {"thermal_hysteresis": ["k_mg_per_c"], "stress_relaxation": ["k1_mg_per_c", "k2_mg_per_c"],
+                  "scale_factor_tc": ["tc1_ppm_per_c"], "aging_drift": ["rate_mg_per_h"], "warmup": ["amplitude_mg"]}
     scenario = {
         "seed": int(seed), "program": _PROGRAM,
         "chamber": {"model": "lumped", "lumped": lumped, "thermometer": thermometer},
         "device": {"sensor": sensor, "effects": device}, "test_plan": test_plan, "twin": {"effects": twin_effects},
     }
-    loaded = parse_scenario(yaml.safe_dump(scenario, sort_keys=False), f"<hidden {kind}>")
-    ds = simulate(loaded)
-    m = from_dataset(ds)
-    noise = ds["truth/noise_white_g"] + ds["truth/noise_bias_instability_g"] + ds["truth/quantisation_g"]
-    if kind == "out_of_library":  # slow unlogged disturbance (humidity-like), 3-h period, 0.3-0.5 mg
-        amp, phase = _u(rng, 0.3, 0.5) * 1e-3, _u(rng, 0, 2 * np.pi)
-        m.output_g = m.output_g + amp * np.sin(2 * np.pi * m.time_s / 10800.0 + phase)
-        truth.update(amplitude_mg=amp * 1e3)
-    # The twin's scenario: same sensor and test plan, the twin's effects, no device effects.
+    hidden_names = [n for n in device if n not in twin_effects]
     twin_scn = dict(scenario, device={"sensor": sensor, "effects": {}})
     twin = parse_scenario(yaml.safe_dump(twin_scn, sort_keys=False), "<twin>")
-    return Case(kind, seed, level, CASES[kind], truth, m, float(np.sqrt(np.mean(noise**2))), twin)
+    band = LEVEL_BANDS.get(level) if kind in LINEAR_CASES else None
+    for attempt in range(2):  # the level is a detectable-RMS ratio: rescale the (linear) amplitude to hit it
+        loaded = parse_scenario(yaml.safe_dump(scenario, sort_keys=False), f"<hidden {kind}>")
+        ds = simulate(loaded)
+        noise = ds["truth/noise_white_g"] + ds["truth/noise_bias_instability_g"] + ds["truth/quantisation_g"]
+        hidden = sum((ds[f"truth/effects/{n}_g"] for n in hidden_names), np.zeros(len(ds))) if hidden_names else None
+        if band is None or attempt == 1:
+            break
+        m0 = from_dataset(ds)
+        ratio = detectable_ratio(m0, twin, hidden, noise)
+        target = _u(rng, *band)
+        factor = target / ratio if ratio > 0 else 1.0
+        for name in hidden_names:
+            for amp in _AMPLITUDE.get(name, []):
+                device[name][amp] *= factor
+                truth[amp] = device[name][amp]
+        truth["target_ratio"] = target
+    m = from_dataset(ds)
+    if kind == "out_of_library":  # slow unlogged disturbance (humidity-like), 3-h period, 0.3-0.5 mg
+        amp, phase = _u(rng, 0.3, 0.5) * 1e-3, _u(rng, 0, 2 * np.pi)
+        hidden = amp * np.sin(2 * np.pi * m.time_s / 10800.0 + phase)
+        m.output_g = m.output_g + hidden
+        truth.update(amplitude_mg=amp * 1e3)
+    return Case(kind, seed, level, CASES[kind], truth, m, float(np.sqrt(np.mean(noise**2))), twin, hidden, noise)

@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import solve_toeplitz
 from scipy.signal import lfilter
 
 
@@ -76,26 +75,29 @@ def _autocovariance(x: np.ndarray, run_index: np.ndarray, max_lag: int) -> np.nd
 
 
 def fit_ar(x: np.ndarray, run_index: np.ndarray, max_order: int = 20) -> ARModel:
-    """Yule–Walker AR fit with the order chosen by BIC (n ln σ²_p + p ln n)."""
+    """Yule–Walker AR fit with the order chosen by BIC (n ln σ²_p + p ln n).
+
+    Levinson–Durbin gives the coefficients and innovation variance of every order in one pass
+    (Brockwell & Davis, *Time Series: Theory and Methods*, §5.2).
+    """
     x = np.asarray(x, float)
     n = x.size
     max_order = int(min(max_order, max(0, n // 10)))
     acov = _autocovariance(x, run_index, max_order)
     if acov[0] <= 0:
         return ARModel(np.zeros(0), float(acov[0]))
-    best = ARModel(np.zeros(0), float(acov[0]))
-    best_bic = n * np.log(acov[0])
+    best, best_bic = ARModel(np.zeros(0), float(acov[0])), n * np.log(acov[0])
+    a = np.zeros(0)
+    s2 = float(acov[0])
     for p in range(1, max_order + 1):
-        try:
-            a = solve_toeplitz(acov[:p], acov[1 : p + 1])
-        except np.linalg.LinAlgError:
-            break
-        s2 = float(acov[0] - a @ acov[1 : p + 1])
-        if s2 <= 0:
+        k = (acov[p] - a @ acov[p - 1 : 0 : -1]) / s2 if p > 1 else acov[1] / s2
+        a = np.r_[a - k * a[::-1], k]
+        s2 *= 1.0 - k * k
+        if s2 <= 0 or abs(k) >= 1:
             break
         bic = n * np.log(s2) + p * np.log(n)
         if bic < best_bic:
-            best, best_bic = ARModel(a, s2), bic
+            best, best_bic = ARModel(a.copy(), float(s2)), bic
     return best
 
 
