@@ -28,6 +28,13 @@ run: $(STAMP)
 	$(TWIN) comb scenarios/paper_iis328dq.yaml --json out/comb.json
 	$(TWIN) render scenarios/paper_iis328dq.yaml --temperature 50 --exaggeration 2000 -o out/comb_50C.png
 	$(TWIN) render scenarios/paper_iis328dq.yaml --sweep -20:50:5 --exaggeration 2000 -o out/comb_sweep.gif
+	# the loop: a device with a lag the twin lacks -> compare -> the named effect -> compare again
+	$(TWIN) run scenarios/hidden_thermal_lag.yaml -o out/hidden.h5 -q
+	$(TWIN) export out/hidden.h5 -o out/hidden.csv
+	rm -rf out/compare
+	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/base.json
+	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/after.json \
+		--with-effect $$($(PY) -c "import json; print(json.load(open('out/compare/base.json'))['candidates'][0]['effect'])")
 
 test: $(STAMP)
 	$(PY) -m pytest -q
@@ -36,6 +43,8 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_simulate.py --json out/bench_simulate.json
 	$(PY) benchmarks/bench_render.py --json out/bench_render.json
 	$(PY) benchmarks/bench_effects.py --json out/bench_effects.json
+	$(PY) benchmarks/bench_compare.py --json out/bench_compare.json
+	$(PY) benchmarks/bench_diagnosis.py --seeds 200 --json out/bench_diagnosis.json
 
 clean:
 	rm -rf out .pytest_cache
