@@ -79,7 +79,7 @@ class BPNN(RegressorMixin, BaseEstimator):
     solver : {"lbfgs", "adam"}
         Full-batch training.
     max_iter : int
-        Epochs (Adam) or L-BFGS iterations.
+        Epochs (Adam) or L-BFGS iterations (checked against the validation set every 10).
     learning_rate : float
         Adam step size (L-BFGS uses its line search).
     early_stopping : bool
@@ -94,8 +94,8 @@ class BPNN(RegressorMixin, BaseEstimator):
     Attributes
     ----------
     coef_ : ndarray — flat weights on standardised data
-    n_iter_ : int
-    loss_curve_ : list of float — training MSE (standardised) per epoch
+    n_iter_ : int — epochs (Adam) or L-BFGS iterations run
+    loss_curve_ : list of float — training MSE (standardised) per epoch (Adam) or per 10 L-BFGS iterations
     validation_scores_ : list of float
     x_mean_, x_scale_, y_mean_, y_scale_ : standardisation
     n_features_in_ : int
@@ -160,18 +160,26 @@ class BPNN(RegressorMixin, BaseEstimator):
         self.loss_curve_, self.validation_scores_ = [], []
         best = (np.inf, theta.detach().clone())
         stall = 0
+        # L-BFGS runs in chunks of 10 iterations between validation checks: stepped one iteration
+        # per call, torch's L-BFGS stalls once a line search fails (its state carries over).
+        chunk = 1 if self.solver == "adam" else 10
         if self.solver == "adam":
             opt = torch.optim.Adam([theta], lr=self.learning_rate)
         else:
-            opt = torch.optim.LBFGS([theta], lr=1.0, max_iter=1, history_size=20, line_search_fn="strong_wolfe")
-        for epoch in range(int(self.max_iter)):
+            opt = torch.optim.LBFGS([theta], lr=1.0, max_iter=chunk, history_size=20, line_search_fn="strong_wolfe",
+                                    tolerance_change=1e-12)
+        n_done = 0
+        while n_done < int(self.max_iter):
             def closure():
                 opt.zero_grad()
                 loss = loss_on(tr)
                 loss.backward()
                 return loss
 
-            loss = opt.step(closure)
+            opt.step(closure)
+            n_done += chunk
+            with torch.no_grad():
+                loss = loss_on(tr)
             self.loss_curve_.append(float(loss))
             if use_val:
                 with torch.no_grad():
@@ -187,7 +195,7 @@ class BPNN(RegressorMixin, BaseEstimator):
                 break
         final = best[1] if use_val else theta.detach()
         self.coef_ = final[0].numpy().copy()
-        self.n_iter_ = len(self.loss_curve_)
+        self.n_iter_ = n_done
         return self
 
     def predict(self, X):

@@ -1,0 +1,102 @@
+"""Compensation models and optimisers: scikit-learn conformance, eq. (45), batched fitness."""
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+from sklearn.utils.estimator_checks import parametrize_with_checks
+
+from fitting import BPNN, CONVENTIONAL, EXTENSION, GA, PAPER, PSO, PSOGA, EvolvedBPNN, FeatureSet, PolynomialCompensator
+from fitting.network import forward, init_weights, n_parameters, population_mse
+from fitting.optimizers import EQ45_BOUNDS, EQ45_MINIMUM, eq45
+
+ESTIMATORS = [
+    BPNN(hidden_size=4, max_iter=30, random_state=0),
+    BPNN(hidden_size=3, solver="adam", max_iter=500, learning_rate=0.05, random_state=0),
+    PolynomialCompensator(max_order=3),
+    EvolvedBPNN(optimizer="ga", generations=3, population_size=8, hidden_size=3, bp_iter=10, random_state=0),
+    EvolvedBPNN(optimizer="psoga", generations=3, population_size=8, hidden_size=3, bp_iter=10, random_state=0),
+]
+
+
+@parametrize_with_checks(ESTIMATORS)
+def test_sklearn_estimator_contract(estimator, check):
+    check(estimator)
+
+
+OPTIMIZERS = [GA(random_state=0), GA(encoding="binary", random_state=0), PSO(random_state=0), PSOGA(random_state=0)]
+
+
+@pytest.mark.parametrize("opt", OPTIMIZERS, ids=["GA", "GA-binary", "PSO", "PSO-GA"])
+def test_optimizer_finds_eq45_minimum_in_18_of_20_seeds(opt):
+    hits = 0
+    for seed in range(20):
+        o = clone(opt).set_params(population_size=50, max_iter=300, target=EQ45_MINIMUM + 1e-6, random_state=seed)
+        o.fit(eq45, EQ45_BOUNDS)
+        hits += abs(o.fun_ - EQ45_MINIMUM) < 1e-6
+    assert hits >= 18
+
+
+@pytest.mark.parametrize("opt", OPTIMIZERS, ids=["GA", "GA-binary", "PSO", "PSO-GA"])
+def test_optimizer_conformance(opt):
+    o = clone(opt).set_params(max_iter=20, population_size=20, random_state=3)
+    params = o.get_params()
+    assert clone(o).get_params() == params  # __init__ only stores
+    a = o.fit(eq45, EQ45_BOUNDS)
+    assert a is o and not hasattr(clone(o), "x_")
+    b = clone(o).fit(eq45, EQ45_BOUNDS)
+    np.testing.assert_array_equal(a.x_, b.x_)  # reproducible with a seed
+    assert a.history_ == b.history_ and len(a.history_) == a.n_iter_ + 1
+    assert all(x >= y for x, y in zip(a.history_, a.history_[1:]))  # best so far never worsens
+    assert np.all((a.x_ >= -2) & (a.x_ <= 2)) and a.fun_ == pytest.approx(float(eq45(a.x_[None])[0]))
+    with pytest.raises(ValueError):
+        clone(o).set_params(population_size=1).fit(eq45, EQ45_BOUNDS)
+    with pytest.raises(ValueError, match="lo < hi"):
+        clone(o).fit(eq45, [(1, 0), (0, 1)])
+
+
+def test_population_evaluation_equals_one_by_one():
+    import torch
+
+    rng = np.random.default_rng(0)
+    X = torch.as_tensor(rng.normal(size=(1000, 4)))
+    y = torch.as_tensor(rng.normal(size=1000))
+    pop = torch.as_tensor(init_weights(4, 10, rng, size=50))
+    batched = population_mse(pop, X, y, 10, chunk=300)
+    single = torch.stack([((forward(pop[i : i + 1], X, 10)[0] - y) ** 2).mean() for i in range(50)])
+    np.testing.assert_allclose(batched.numpy(), single.numpy(), rtol=1e-12)
+    assert n_parameters(4, 10) == pop.shape[1] == 61
+
+
+def test_bpnn_learns_a_smooth_function():
+    rng = np.random.default_rng(1)
+    X = rng.uniform(-2, 2, (2000, 2))
+    y = np.tanh(X[:, 0]) + 0.3 * X[:, 1] ** 2
+    m = BPNN(hidden_size=10, max_iter=300, random_state=0).fit(X, y)
+    assert np.mean((m.predict(X) - y) ** 2) < 1e-3
+    assert m.n_iter_ >= 10 and m.loss_curve_[-1] < m.loss_curve_[0]
+
+
+def test_features_name_and_compose():
+    t = np.arange(0, 600, 1.0)
+    temp = 20 + 0.01 * t
+    X = PAPER.transform(temp, t)
+    assert PAPER.names() == ["T", "T^2", "dT", "dT^2"]
+    np.testing.assert_allclose(X[:, 2], temp - 20)
+    # reference ΔT: (ΔT, ΔT²) spans the same space as (T, T²) — the paper's Model 1 adds nothing
+    A = np.column_stack([np.ones_like(t), X[:, :2]])
+    B = np.column_stack([np.ones_like(t), X[:, 2:]])
+    assert np.linalg.matrix_rank(np.column_stack([A, B])) == 3
+    win = FeatureSet(("dT",), delta="window", window_s=35.0).transform(temp, t)
+    assert win[100, 0] == pytest.approx(0.35)  # 0.01 °C/s × 35 s, no absolute temperature
+    assert EXTENSION.names()[-1] == "dT/dt" and EXTENSION.transform(temp, t)[300, -1] == pytest.approx(0.6)
+    assert CONVENTIONAL.names() == ["dT", "dT^2"]
+    with pytest.raises(ValueError, match="unknown feature"):
+        FeatureSet(("T3",))
+
+
+def test_polynomial_picks_order_by_validation():
+    rng = np.random.default_rng(2)
+    x = rng.uniform(-1, 1, (3000, 1))
+    y = 1 + 2 * x[:, 0] - 3 * x[:, 0] ** 3 + rng.normal(0, 0.01, 3000)
+    m = PolynomialCompensator(max_order=6).fit(x, y)
+    assert m.order_ == 3
