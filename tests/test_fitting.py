@@ -100,3 +100,30 @@ def test_polynomial_picks_order_by_validation():
     y = 1 + 2 * x[:, 0] - 3 * x[:, 0] ** 3 + rng.normal(0, 0.01, 3000)
     m = PolynomialCompensator(max_order=6).fit(x, y)
     assert m.order_ == 3
+
+
+def test_twin_benchmark_quick_json(tmp_path):
+    import json
+
+    from conftest import run_cli
+
+    out = tmp_path / "bench.json"
+    r = run_cli("benchmark", "scenarios/paper_iis328dq.yaml", "--quick", "--seeds", "1", "--json", str(out),
+                "--report", str(tmp_path / "rep"))
+    assert r.returncode == 0, r.stderr
+    b = json.loads(out.read_text())
+    assert b["noise_floor_mse"] > 0
+    models = {row["model"] for row in b["table1"]}
+    assert {"conventional", "model1", "model2_ga", "model3_psoga", "polynomial_T", "extension_bpnn_dTdt",
+            "physics_twin"} <= models
+    for row in b["table1"]:
+        assert len(row["mse"]) == 1 and row["ratio_mean"] > 0.95  # nothing beats the noise floor by much
+        assert ("Q_percent" in row) == (row["model"] != "conventional")
+    assert set(b["table2"]) == {"model2_ga", "model3_psoga"}
+    assert set(b["table2"]["model3_psoga"]["mse_g2_at_iteration"]) == {"14", "28", "42", "56", "70"}
+    for name in ("GA", "PSO", "PSO-GA"):
+        assert b["optimizers"][name]["reached"] >= 18
+    twin = next(row for row in b["table1"] if row["model"] == "physics_twin")
+    ext = next(row for row in b["table1"] if row["model"] == "extension_bpnn_dTdt")
+    assert twin["ratio_mean"] <= 1.05 and ext["ratio_mean"] <= 1.05  # the extensions reach the floor
+    assert (tmp_path / "rep" / "report.html").is_file()

@@ -340,6 +340,50 @@ def compare(
     _emit_json(result, json_out)
 
 
+@app.command()
+def benchmark(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML: the device and test whose drift is compensated")],
+    seeds: Annotated[int, typer.Option("--seeds", min=1, help="independent test runs (Tests 1..N)")] = 3,
+    quick: Annotated[bool, typer.Option("--quick", help="1 Hz data, 20 generations, population 20: minutes, not tens")] = False,
+    report: Annotated[Optional[Path], typer.Option("--report", help="write plots and report.html into DIR")] = None,
+    json_out: JsonOpt = None,
+) -> None:
+    """The paper's compensation benchmark (conventional, Model 1, GA-BPNN, PSO-GA-BPNN, polynomial,
+    our dT/dt extension, the calibrated physics twin) on data whose truth is known."""
+    from tqdm import tqdm
+
+    from twin.benchmark import optimizer_benchmark, run_benchmark
+    from twin.scenario import load_scenario
+
+    try:
+        loaded = load_scenario(scenario)
+    except TwinError as exc:
+        _fail(str(exc))
+    with tqdm(total=3 * seeds + 1, desc="benchmark", leave=False, file=sys.stderr, disable=None) as bar:
+        def tick(msg: str) -> None:
+            bar.set_description(msg)
+            bar.update(1)
+
+        result = run_benchmark(loaded, seeds=seeds, quick=quick, progress=tick)
+        bar.set_description("optimisers on eq. (45)")
+        result["optimizers"] = optimizer_benchmark(20)
+    if report is not None:
+        from twin.benchmark_report import write_benchmark_report
+
+        write_benchmark_report(report, result)
+    if json_out != "-":
+        typer.echo(f"Table 1: MSE of the compensated output [g²] on Tests 1..{seeds} (noise floor {result['noise_floor_mse']:.3e})")
+        for row in result["table1"]:
+            q = "" if "Q_percent" not in row else "  Q " + " ".join(f"{v:5.2f}%" for v in row["Q_percent"])
+            typer.echo(f"  {row['model']:<22}" + " ".join(f"{v:.3e}" for v in row["mse"]) +
+                       f"  ×floor {row['ratio_mean']:.3f}{q}")
+        for v in result["verdicts"]:
+            typer.echo(f"  - {v}")
+        if report is not None:
+            typer.echo(f"report: {report / 'report.html'}")
+    _emit_json(result, json_out)
+
+
 def main() -> None:
     """Console entry point: usage errors and our errors exit 2 with one line."""
     try:
