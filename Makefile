@@ -35,16 +35,21 @@ run: $(STAMP)
 	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/base.json
 	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/after.json \
 		--with-effect $$($(PY) -c "import json; print(json.load(open('out/compare/base.json'))['candidates'][0]['effect'])")
+	# the paper's compensation benchmark, short version (make bench runs the full one)
+	$(TWIN) benchmark scenarios/paper_iis328dq.yaml --quick --seeds 1 --json out/benchmark_quick.json
 
 test: $(STAMP)
 	$(PY) -m pytest -q
 
 bench: $(STAMP)
+	$(PY) -m pip install --quiet -e '.[test,bench]'
 	$(PY) benchmarks/bench_simulate.py --json out/bench_simulate.json
 	$(PY) benchmarks/bench_render.py --json out/bench_render.json
 	$(PY) benchmarks/bench_effects.py --json out/bench_effects.json
 	$(PY) benchmarks/bench_compare.py --json out/bench_compare.json
 	$(PY) benchmarks/bench_diagnosis.py --seeds 200 --json out/bench_diagnosis.json
+	$(PY) benchmarks/bench_fitting.py --json out/bench_fitting.json
+	$(TWIN) benchmark scenarios/paper_iis328dq.yaml --seeds 3 --json out/benchmark.json --report out/benchmark
 
 clean:
 	rm -rf out .pytest_cache
