@@ -23,6 +23,9 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _common import write_json  # noqa: E402
 
 from twin.measurement import from_dataset, write_canonical_csv  # noqa: E402
 from twin.scenario import parse_scenario  # noqa: E402
@@ -99,10 +102,7 @@ def main() -> None:
         "meets_target": t_compare < 10.0,
         "finding": result["finding"][:200],
     }
-    path = Path(args.json)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(out, indent=2) + "\n")
-    print(json.dumps(out, indent=2))
+    write_json(args.json, out)
 
 
 if __name__ == "__main__":

@@ -21,6 +21,9 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _common import write_json  # noqa: E402
 
 from sim.drift import play_operator  # noqa: E402
 from twin.effects import REGISTRY, EffectInputs  # noqa: E402
@@ -88,10 +91,7 @@ def main() -> None:
         "target_added_s": 1.0,
         "meets_target": (t_all - t_min) < 1.0,
     }
-    out = Path(args.json)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result, indent=2))
+    write_json(args.json, result)
 
 
 if __name__ == "__main__":

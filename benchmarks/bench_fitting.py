@@ -26,6 +26,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _common import write_json  # noqa: E402
 
 import torch  # noqa: E402
 
@@ -172,10 +175,7 @@ def main() -> None:
     ys = (y - y.mean()) / y.std()
     result = {"threads": torch.get_num_threads(), "fitness": fitness_benchmark(Xs, ys),
               "end_to_end": end_to_end(m, train, test, noise, args.quick)}
-    out = Path(args.json)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result, indent=2))
+    write_json(args.json, result)
 
 
 if __name__ == "__main__":

@@ -21,6 +21,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _common import write_json  # noqa: E402
 
 from sim.comb_mesh import comb_parts, displacement_field_um  # noqa: E402
 from sim.microstructure import CombGeometry  # noqa: E402
@@ -83,10 +86,7 @@ def main() -> None:
         "target_s": 5.0,
         "meets_target": min(proc) < 5.0,
     }
-    out = Path(args.json)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result, indent=2))
+    write_json(args.json, result)
 
 
 if __name__ == "__main__":

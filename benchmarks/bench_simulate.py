@@ -29,6 +29,9 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _common import write_json  # noqa: E402
 
 from twin.scenario import load_scenario, parse_scenario  # noqa: E402
 from twin.simulate import simulate, simulate_thermal, time_base  # noqa: E402
@@ -183,10 +186,7 @@ def main() -> None:
         "simulate_1d": result["simulate_1d_full_step_s"] < 5.0,
         "import_light": not imports,
     }
-    out = Path(args.json)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result, indent=2))
+    write_json(args.json, result)
 
 
 if __name__ == "__main__":

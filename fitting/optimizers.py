@@ -101,6 +101,15 @@ class PopulationOptimizer(BaseEstimator):
         """Hook for state derived from the initial population (PSO velocities, bests)."""
 
 
+def _with_immigrants(rng, population: np.ndarray, share: float, lo, hi) -> np.ndarray:
+    """Replace a share of the population by fresh random points: random immigrants keep a GA's
+    search global (Grefenstette 1992)."""
+    k = int(round(share * population.shape[0]))
+    if k:
+        population[rng.choice(population.shape[0], k, replace=False)] = lo + rng.random((k, lo.size)) * (hi - lo)
+    return population
+
+
 class GA(PopulationOptimizer):
     """Genetic algorithm: tournament selection, crossover, mutation, elitism.
 
@@ -165,11 +174,7 @@ class GA(PopulationOptimizer):
         return decode(child.reshape(self.population_size, lo.size, self.n_bits))
 
     def _step(self, rng, lo, hi, f):
-        child = self._offspring(rng, lo, hi)
-        # random immigrants keep the search global (Grefenstette 1992): a share of fresh points
-        k = int(round(self.immigrants * self.population_size))
-        if k:
-            child[rng.choice(self.population_size, k, replace=False)] = lo + rng.random((k, lo.size)) * (hi - lo)
+        child = _with_immigrants(rng, self._offspring(rng, lo, hi), self.immigrants, lo, hi)
         fit = self._evaluate(f, child)
         elite = np.argsort(self.pop_fit_)[: self.elite]
         worst = np.argsort(fit)[::-1][: self.elite]
@@ -266,10 +271,7 @@ class PSOGA(PSO):
     def _step(self, rng, lo, hi, f):
         ga = GA(self.population_size, self.max_iter, self.crossover_rate, self.mutation_rate, self.mutation_scale)
         ga.pop_, ga.pop_fit_, ga.n_iter_ = self.pop_, self.pop_fit_, self.n_iter_
-        child = ga._offspring(rng, lo, hi)
-        k = int(round(self.immigrants * self.population_size))
-        if k:
-            child[rng.choice(self.population_size, k, replace=False)] = lo + rng.random((k, lo.size)) * (hi - lo)
+        child = _with_immigrants(rng, ga._offspring(rng, lo, hi), self.immigrants, lo, hi)
         child_fit = self._evaluate(f, child)
         keep = child_fit < self.pop_fit_  # offspring replace their parent position when better
         self.pop_ = np.where(keep[:, None], child, self.pop_)

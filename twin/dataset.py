@@ -7,8 +7,6 @@ A simulation and a measurement are the same type, so one compare and one plot se
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -16,7 +14,7 @@ import h5py
 import numpy as np
 
 from twin.errors import DatasetError
-from twin.io import umask_mode
+from twin.io import atomic_path
 
 LAYOUT_VERSION = "1"
 
@@ -83,28 +81,18 @@ def write_hdf5(ds: Dataset, path: str | Path, compression: str = "lzf") -> Path:
 
     An interrupted write never leaves a truncated file under the final name.
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
     comp = None if compression == "none" else compression
-    try:
-        with h5py.File(tmp, "w") as f:
-            for key, value in ds.attrs.items():
-                f.attrs[key] = value
-            for name, values in ds.arrays.items():
-                values = np.asarray(values)
-                chunks = (min(values.size, 1 << 16),) if values.size else None
-                d = f.create_dataset(name, data=values, chunks=chunks, compression=comp,
-                                     shuffle=comp is not None and values.size > 0)
-                d.attrs["units"] = ds.units[name]
-                d.attrs["description"] = ds.descriptions.get(name, "")
-        os.chmod(tmp, umask_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    with atomic_path(Path(path)) as tmp, h5py.File(tmp, "w") as f:
+        for key, value in ds.attrs.items():
+            f.attrs[key] = value
+        for name, values in ds.arrays.items():
+            values = np.asarray(values)
+            chunks = (min(values.size, 1 << 16),) if values.size else None
+            d = f.create_dataset(name, data=values, chunks=chunks, compression=comp,
+                                 shuffle=comp is not None and values.size > 0)
+            d.attrs["units"] = ds.units[name]
+            d.attrs["description"] = ds.descriptions.get(name, "")
+    return Path(path)
 
 
 def read_hdf5(path: str | Path) -> Dataset:
