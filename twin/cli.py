@@ -384,6 +384,40 @@ def benchmark(
     _emit_json(result, json_out)
 
 
+@app.command()
+def doe(
+    study: Annotated[Path, typer.Argument(help="study YAML")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="output folder (runs.jsonl, table, plots)")],
+    workers: Annotated[int, typer.Option("--workers", min=1, help="parallel runs")] = 1,
+    executor: Annotated[str, typer.Option("--executor", help="local or dask")] = "local",
+    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="dask scheduler address (default: a local cluster)")] = None,
+    json_out: JsonOpt = None,
+) -> None:
+    """Run a design-of-experiment study; resumes where it stopped (finished runs are kept)."""
+    from tqdm import tqdm
+
+    from twin.doe import load_study, plan, run_study, write_outputs
+
+    if executor not in ("local", "dask"):
+        _fail(f"--executor must be 'local' or 'dask', got {executor!r}")
+    try:
+        st, base, _ = load_study(study)
+    except TwinError as exc:
+        _fail(str(exc))
+    total = len(plan(st, base))
+    with tqdm(total=total, desc="runs", unit="run", file=sys.stderr, disable=None) as bar:
+        runs = run_study(st, base, output, workers, executor, scheduler, progress=lambda r: bar.update(1))
+    analysis = write_outputs(st, runs, output)
+    result = {"output": str(output), "runs": len(runs), "planned": total, "failed": analysis["failed"],
+              "main_effects": analysis["main_effects"], "interactions": analysis["interactions"],
+              "sobol": analysis["sobol"]}
+    if json_out != "-":
+        typer.echo(f"{len(runs)}/{total} runs ({analysis['failed']} failed) -> {output}/table.csv, analysis.json, plots")
+        for f, per in analysis["main_effects"].items():
+            typer.echo(f"  {f}: " + ", ".join(f"{r} effect {v['effect']:.3g}" for r, v in per.items()))
+    _emit_json(result, json_out)
+
+
 def main() -> None:
     """Console entry point: usage errors and our errors exit 2 with one line."""
     try:
