@@ -37,8 +37,8 @@ def twin_model(loaded: LoadedScenario, with_effects: list[str]) -> Composition:
             cls = get_effect(name)
         except ModelError as exc:
             raise TwinError(f"--with-effect: {exc}") from None
-        if name not in present:
-            comp = Composition(comp.effects + [cls(ctx)])
+        if name not in present:  # an effect the user adds is calibrated whole (fixed-by-default amplitudes too)
+            comp = Composition(comp.effects + [cls({**ctx, "fit_all": True})])
             present.append(name)
     return comp
 

@@ -89,8 +89,10 @@ class Problem:
         for r in range(m.runs):
             cols.append((m.run_index == r).astype(float))
             names.append(f"offset_run{r}")
-        if m.applied_known and np.std(applied) > 0.1:
-            cols.append(applied)  # sensitivity calibration error K1 (IEEE 1293 scale factor)
+        # sensitivity error K1 (IEEE 1293): separable from the per-run offsets only when the
+        # orientation changes within a run (a tumble); with one orientation per run it is their difference
+        if m.applied_known and any(np.std(applied[s]) > 0.1 for s in _run_slices(m.run_index)):
+            cols.append(applied)
             names.append("scale_factor_k1")
         self.nuisance = np.column_stack(cols)
         self.nuisance_names = names
@@ -116,7 +118,9 @@ def _design(problem: Problem, comp: Composition, pinned: frozenset = frozenset()
     cols, names = [], []
     fixed = np.zeros(problem.n)
     for e in comp.drift_effects:
-        free = {p.name for p in e.parameters if p.role == "amplitude" and p.free and (e.name, p.name) not in pinned}
+        fit_all = e.context.get("fit_all", False)  # added by the user: its amplitudes are calibrated too
+        free = {p.name for p in e.parameters
+                if p.role == "amplitude" and (p.free or fit_all) and (e.name, p.name) not in pinned}
         for amp, contrib in e.basis(inputs).items():
             col = np.broadcast_to(contrib.output_g(problem.applied), (problem.n,)).astype(float)
             if amp in free:
@@ -360,11 +364,19 @@ def _temperature_derivative(problem: Problem, cal: Calibration, h: float = 0.5) 
 
 
 def _orthonormal(Aw: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of the column space, rank-revealing (SVD of the column-normalised matrix).
+
+    Plain QR is not: for a dependent column it still returns a unit vector, in an arbitrary
+    direction outside the span, and the later columns are made orthogonal to it.
+    """
     if Aw.shape[1] == 0:
         return np.zeros((Aw.shape[0], 0))
-    q, r = np.linalg.qr(Aw)
-    keep = np.abs(np.diag(r)) > 1e-10 * np.abs(np.diag(r)).max()
-    return q[:, keep]
+    norms = np.linalg.norm(Aw, axis=0)
+    A = Aw[:, norms > 0] / norms[norms > 0]
+    if A.shape[1] == 0:
+        return np.zeros((Aw.shape[0], 0))
+    u, sv, _ = np.linalg.svd(A, full_matrices=False)
+    return u[:, sv > 1e-9 * sv[0]]
 
 
 def _novelty(X: np.ndarray, Q: np.ndarray) -> float:

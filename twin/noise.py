@@ -7,7 +7,7 @@ to 20, prewhitening per run *without dropping the first samples* (power-on trans
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.signal import lfilter
@@ -38,23 +38,39 @@ class BlockAverager:
 
 @dataclass
 class ARModel:
-    """x[t] = Σ a_i x[t−i] + e[t], e white with variance ``sigma2``."""
+    """x[t] = Σ a_i x[t−i] + e[t], e white with variance ``sigma2``.
+
+    ``partial`` holds the Levinson–Durbin predictors of orders 0..p−1 with their error variances,
+    used for the first samples of each run.
+    """
 
     coefficients: np.ndarray
     sigma2: float
+    partial: list[tuple[np.ndarray, float]] = field(default_factory=list)
 
     @property
     def order(self) -> int:
         return int(self.coefficients.size)
 
     def prewhiten(self, x: np.ndarray, run_index: np.ndarray) -> np.ndarray:
-        """e = x − Σ a_i x[t−i], restarted at each run with zeros before it (start samples kept)."""
+        """Exact AR(p) whitening, run by run, keeping every sample (innovations algorithm).
+
+        From sample p on: e = x − Σ a_i x[t−i]. The first p samples of a run have fewer past
+        values: sample t is predicted with the order-t predictor and its error scaled by
+        √(σ²_p / σ²_t), so all outputs share one variance. Zero-initialised filtering would leave
+        those samples with the full process variance, and a regressor concentrated at run starts
+        (a power-on transient) would look significant in pure noise.
+        """
         b = np.r_[1.0, -self.coefficients]
         x = np.asarray(x, float)
         out = np.empty_like(x)
         edges = np.r_[0, np.flatnonzero(np.diff(run_index)) + 1, len(run_index)]
         for a, z in zip(edges[:-1], edges[1:]):
-            out[a:z] = lfilter(b, [1.0], x[a:z], axis=0)
+            seg = x[a:z]
+            out[a:z] = lfilter(b, [1.0], seg, axis=0)
+            for t, (coef, s2) in enumerate(self.partial[: z - a]):
+                pred = np.tensordot(coef, seg[t - 1 :: -1][: t], axes=(0, 0)) if t else 0.0
+                out[a + t] = (seg[t] - pred) * np.sqrt(self.sigma2 / s2)
         return out
 
 
@@ -89,15 +105,19 @@ def fit_ar(x: np.ndarray, run_index: np.ndarray, max_order: int = 20) -> ARModel
     best, best_bic = ARModel(np.zeros(0), float(acov[0])), n * np.log(acov[0])
     a = np.zeros(0)
     s2 = float(acov[0])
+    partial = [(a.copy(), s2)]  # order-0 predictor: the mean (zero), error variance = variance
     for p in range(1, max_order + 1):
         k = (acov[p] - a @ acov[p - 1 : 0 : -1]) / s2 if p > 1 else acov[1] / s2
+        if abs(k) >= 1:
+            break
         a = np.r_[a - k * a[::-1], k]
         s2 *= 1.0 - k * k
-        if s2 <= 0 or abs(k) >= 1:
+        if s2 <= 0:
             break
         bic = n * np.log(s2) + p * np.log(n)
         if bic < best_bic:
-            best, best_bic = ARModel(a.copy(), float(s2)), bic
+            best, best_bic = ARModel(a.copy(), float(s2), list(partial)), bic
+        partial.append((a.copy(), s2))
     return best
 
 

@@ -16,10 +16,11 @@ class StressRelaxation(Effect):
     reads = ("die_c",)
     parameters = (
         Parameter("k1_mg_per_c", "mg/degC", 0.1, (-10.0, 10.0), "0.1-few mg amplitude (§2c)"),
-        Parameter("tau_s", "s", 7200.0, (60.0, 200000.0), "0.5-5 h (§2c)", role="nonlinear",
+        Parameter("tau_s", "s", 7200.0, (1800.0, 200000.0), "0.5-5 h (§2c); shorter is a thermal gradient",
+                  role="nonlinear",
                   grid=(1800.0, 3600.0, 7200.0, 14400.0, 28800.0)),
         Parameter("k2_mg_per_c", "mg/degC", 0.0, (-10.0, 10.0), "second Prony term", screen=False),
-        Parameter("tau2_s", "s", 36000.0, (60.0, 200000.0), "second Prony time constant", role="nonlinear",
+        Parameter("tau2_s", "s", 36000.0, (1800.0, 200000.0), "second Prony time constant", role="nonlinear",
                   grid=(36000.0,)),
         REFERENCE_C,
     )

@@ -13,8 +13,9 @@ class ThermalGradient(Effect):
     reads = ("die_c",)
     parameters = (
         Parameter("coef_mg_per_c_per_min", "mg/(degC/min)", 0.5, (-50.0, 50.0), "similar to lag during ramps (§2i)"),
-        Parameter("tau_s", "s", 300.0, (5.0, 7200.0), "gradient build-up time", role="nonlinear",
-                  grid=(30.0, 100.0, 300.0, 1000.0, 3000.0)),
+        Parameter("tau_s", "s", 300.0, (5.0, 1500.0),
+                  "conduction through package/board: seconds to ~20 min (physics-notes §1.6); longer is creep",
+                  role="nonlinear", grid=(30.0, 100.0, 300.0, 1000.0)),
     )
 
     def basis(self, inputs):
