@@ -34,7 +34,7 @@ RESPONSES = {
     "noise_floor_mg": "noise floor estimated from the measurement [mg]",
     "hidden_detected": "1 if the diagnosis detects a missing effect, else 0",
     "hidden_rank": "rank (1 = first) of the hidden effect's family in the diagnosis ranking; 0 if absent",
-    "hidden_separated": "1 if the hidden effect's family is first and not in an alias group, else 0",
+    "hidden_separated": "1 if the hidden effect's family is first and in no alias group with another family, else 0",
     "compensated_mse_ratio": "MSE of a polynomial-in-T compensation on the last cycle / noise-only MSE",
 }
 
@@ -277,8 +277,10 @@ def evaluate_run(job: dict, responses: list[str]) -> dict:
             hidden = _hidden_family(loaded)
             fams = [c["family"] for c in r["candidates"]]
             values["hidden_rank"] = float(fams.index(hidden) + 1) if hidden in fams else 0.0
-            aliased = {get_family(e) for a in r["aliases"] for e in a["effects"] if e in _registry()}
-            values["hidden_separated"] = float(bool(fams) and fams[0] == hidden and hidden not in aliased)
+            # separated: named first, and in no alias group with an effect of another family
+            mixed = any(hidden in fs and len(fs) > 1 for fs in
+                        ({get_family(e) for e in a["effects"] if e in _registry()} for a in r["aliases"]))
+            values["hidden_separated"] = float(bool(fams) and fams[0] == hidden and not mixed)
         if "compensated_mse_ratio" in responses:
             values["compensated_mse_ratio"] = _poly_compensation_ratio(loaded, ds, noise)
         out["responses"] = {k: float(values[k]) for k in responses}
