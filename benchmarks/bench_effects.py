@@ -11,7 +11,6 @@ Usage: python benchmarks/bench_effects.py [--json out/bench_effects.json] [--rep
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path

@@ -17,7 +17,6 @@ Usage: python benchmarks/bench_fitting.py [--json out/bench_fitting.json] [--qui
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path

@@ -10,7 +10,6 @@ Usage: python benchmarks/bench_render.py [--json out/bench_render.json] [--repea
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import tempfile

@@ -17,7 +17,6 @@ Usage: python benchmarks/bench_simulate.py [--json out/bench_simulate.json] [--r
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import tempfile
