@@ -21,11 +21,11 @@ def coarse_text(path: Path, rate_hz: float = 0.5, max_cycles: int = 1) -> str:
     return yaml.safe_dump(data, sort_keys=False)
 
 
-def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+def run_cli(*args: str, cwd: Path | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
     """Run ``twin`` as a user would (a fresh process)."""
     env = {**os.environ, "PYTHONWARNINGS": "ignore"}
     return subprocess.run([sys.executable, "-m", "twin.cli", *args], capture_output=True, text=True,
-                          cwd=cwd or ROOT, env=env, timeout=300)
+                          cwd=cwd or ROOT, env=env, timeout=timeout)
 
 
 @pytest.fixture(scope="session")

@@ -52,14 +52,15 @@ def _models(quick: bool, seed: int) -> dict:
     gens = 20 if quick else 70
     pop = 20 if quick else 50
     stride = 4 if quick else 1
+    bp = 100 if quick else 200
     net = dict(hidden_size=10, activation="tanh", random_state=seed)
     return {
-        "conventional": (CONVENTIONAL, BPNN(max_iter=200, **net)),
-        "model1": (PAPER, BPNN(max_iter=200, **net)),
-        "model2_ga": (PAPER, EvolvedBPNN("ga", gens, pop, bp_iter=200, sample_stride=stride, **net)),
-        "model3_psoga": (PAPER, EvolvedBPNN("psoga", gens, pop, bp_iter=200, sample_stride=stride, **net)),
+        "conventional": (CONVENTIONAL, BPNN(max_iter=bp, **net)),
+        "model1": (PAPER, BPNN(max_iter=bp, **net)),
+        "model2_ga": (PAPER, EvolvedBPNN("ga", gens, pop, bp_iter=bp, sample_stride=stride, **net)),
+        "model3_psoga": (PAPER, EvolvedBPNN("psoga", gens, pop, bp_iter=bp, sample_stride=stride, **net)),
         "polynomial_T": (FeatureSet(("T",)), PolynomialCompensator(max_order=6)),
-        "extension_bpnn_dTdt": (EXTENSION, BPNN(max_iter=200, **net)),
+        "extension_bpnn_dTdt": (EXTENSION, BPNN(max_iter=bp, **net)),
     }
 
 
