@@ -93,8 +93,8 @@ def fitness_benchmark(Xs: np.ndarray, ys: np.ndarray) -> dict:
 
     class Fit(Problem):
         def __init__(self):
-            super().__init__("min", solution_length=npar, initial_bounds=(-1.0, 1.0), dtype=torch.float32,
-                             vectorized=True)
+            # _evaluate_batch makes it vectorised: the whole population in one call
+            super().__init__("min", solution_length=npar, initial_bounds=(-1.0, 1.0), dtype=torch.float32)
 
         def _evaluate_batch(self, batch):
             batch.set_evals(population_mse(batch.values, X32, y32, HIDDEN, chunk=10**9))
@@ -145,7 +145,7 @@ def end_to_end(m, train, test, noise, quick: bool) -> dict:
         mse_ours = float(np.mean((m.output_g[test] - model.predict(Xte) - m.applied_g[test]) ** 2))
         mu, sd = Xtr.mean(0), Xtr.std(0)
         ys_mu, ys_sd = y[train].mean(), y[train].std()
-        sk = MLPRegressor((HIDDEN,), activation="tanh", solver="lbfgs", max_iter=200, random_state=0)
+        sk = MLPRegressor(hidden_layer_sizes=(HIDDEN,), activation="tanh", solver="lbfgs", max_iter=200, random_state=0)
         ts = time.perf_counter()
         sk.fit((Xtr - mu) / sd, (y[train] - ys_mu) / ys_sd)
         t_sk = time.perf_counter() - ts
