@@ -152,20 +152,12 @@ def _check_factor_path(path: str, base: dict) -> None:
 
 def load_study(path: str | Path) -> tuple[Study, dict, Path]:
     """Validate a study file; return it, the base scenario data, and the study's folder."""
-    from twin.scenario import _format_path, _line_map, _where
+    from twin.scenario import _format_path, _where, load_yaml_mapping
 
     p = Path(path)
     if not p.is_file():
         raise ScenarioError(f"{p}: study file not found")
-    text = p.read_text()
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        raise ScenarioError(f"{p}{':' + str(mark.line + 1) if mark else ''}: malformed YAML") from None
-    if not isinstance(data, dict):
-        raise ScenarioError(f"{p}: a study is a YAML mapping")
-    lines = _line_map(text)
+    data, lines = load_yaml_mapping(p.read_text(), str(p), "a study is a YAML mapping")
     try:
         study = Study.model_validate(data)
     except ValidationError as exc:

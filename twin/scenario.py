@@ -425,8 +425,8 @@ def _validation_message(err: ValidationError, path: str, lines: dict[tuple, int]
     return f"{where}: {key}: {msg}{shown}"
 
 
-def parse_scenario(text: str, path: str = "<string>") -> LoadedScenario:
-    """Validate scenario text; raise :class:`ScenarioError` with a one-line message."""
+def load_yaml_mapping(text: str, path: str, what: str) -> tuple[dict, dict[tuple, int]]:
+    """Parse YAML that must be a mapping; return it with its key-path → line map."""
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -435,8 +435,13 @@ def parse_scenario(text: str, path: str = "<string>") -> LoadedScenario:
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise ScenarioError(f"{path}{line}: malformed YAML: {problem}") from None
     if not isinstance(data, dict):
-        raise ScenarioError(f"{path}: a scenario is a YAML mapping with a 'program' section, got {type(data).__name__}")
-    lines = _line_map(text)
+        raise ScenarioError(f"{path}: {what}, got {type(data).__name__}")
+    return data, _line_map(text)
+
+
+def parse_scenario(text: str, path: str = "<string>") -> LoadedScenario:
+    """Validate scenario text; raise :class:`ScenarioError` with a one-line message."""
+    data, lines = load_yaml_mapping(text, path, "a scenario is a YAML mapping with a 'program' section")
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as exc:
