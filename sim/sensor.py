@@ -20,8 +20,6 @@ from scipy.signal import lfilter
 SENSITIVITY_MG_PER_DIGIT = {2: 0.98, 4: 1.95, 8: 3.91}
 LOWPASS_HZ_AT_ODR = {50: 37.0, 100: 74.0, 400: 292.0, 1000: 780.0}
 RESOLUTION_BITS = 12
-UNVERIFIED_PARAMETERS = ("noise_density_ug_per_sqrt_hz", "tcso_pct_per_c", "tcoff_mg_per_c",
-                         "bias_instability_mg", "bias_instability_tau_s")
 
 
 @dataclass(frozen=True)

@@ -215,10 +215,15 @@ def _exact_aliases(problem: Problem, comp: Composition) -> list[tuple[tuple[str,
     for j in range(A.shape[1] - 1, nn - 1, -1):
         others = [k for k in keep if k != j]
         if _novelty(A[:, [j]], _orthonormal(A[:, others])) < 1e-6:
-            corr = [abs(np.corrcoef(A[:, j], A[:, k])[0, 1]) if np.std(A[:, k]) > 0 else 0.0 for k in others]
-            out.append((names[j - nn], labels[others[int(np.argmax(corr))]] if corr else "the offsets"))
+            out.append((names[j - nn], _closest(A, j, others, labels)))
             keep.remove(j)
     return out
+
+
+def _closest(A: np.ndarray, j: int, others: list[int], labels: list[str]) -> str:
+    """Label of the column among ``others`` most correlated with column ``j``."""
+    corr = [abs(np.corrcoef(A[:, j], A[:, k])[0, 1]) if np.std(A[:, k]) > 0 else 0.0 for k in others]
+    return labels[others[int(np.argmax(corr))]] if corr else "the offsets"
 
 
 def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | None = None) -> Calibration:
@@ -326,8 +331,6 @@ class CandidateResult:
     columns_full: np.ndarray | None = None
     significant: bool = False
     rms_residual_g: float = float("nan")
-    testable: bool = True
-    note: str = ""
 
 
 def _screen_columns(problem: Problem, cal: Calibration, cls: type[Effect], values: dict[str, float]):
@@ -526,21 +529,14 @@ def _novelty_of_model(problem: Problem, cal: Calibration, cfg: DiagnosisConfig) 
     """Model amplitudes this data cannot estimate (aliased with offsets or each other)."""
     A = problem.avg(cal.X_full)
     nn = problem.nuisance.shape[1]
+    labels = problem.nuisance_names + [f"{e}.{a}" for e, a in cal.names]
     out = []
     for j, (eff, amp) in enumerate(cal.names):
-        col = A[:, nn + j]
-        others = np.delete(A, nn + j, axis=1)
-        Q = _orthonormal(others)
-        perp = col - Q @ (Q.T @ col)
-        denom = np.linalg.norm(col - col.mean())
-        novelty = float((np.linalg.norm(perp) / denom) ** 2) if denom > 0 else 0.0
+        others = [k for k in range(A.shape[1]) if k != nn + j]
+        novelty = _novelty(A[:, [nn + j]], _orthonormal(A[:, others]))
         if novelty < cfg.alias_novelty:
-            corr = [abs(np.corrcoef(col, others[:, k])[0, 1]) if np.std(others[:, k]) > 0 else 0.0
-                    for k in range(others.shape[1])]
-            labels = problem.nuisance_names + [f"{e}.{a}" for e, a in cal.names]
-            labels = [lab for k, lab in enumerate(labels) if k != nn + j]
-            partner = labels[int(np.argmax(corr))] if corr else "the offsets"
-            out.append({"effect": eff, "parameter": amp, "novelty": novelty, "aliased_with": partner})
+            out.append({"effect": eff, "parameter": amp, "novelty": novelty,
+                        "aliased_with": _closest(A, nn + j, others, labels)})
     return out
 
 
