@@ -83,6 +83,40 @@ def test_probe_offset_is_listed_untestable():
     assert "probe_offset" not in r["selected"]
 
 
+def _cand(effect, family, dbic, significant, novelty=0.5):
+    from twin.diagnose import CandidateResult
+
+    return CandidateResult(effect, family, {}, dbic, 0.0, 0.0, 0.1, 0.1, novelty, {}, significant=significant)
+
+
+def test_selection_withholds_a_significant_effect_outranked_by_another_family():
+    from twin.diagnose import DiagnosisConfig, _next_selection
+
+    cfg = DiagnosisConfig()
+    hyst, grad, lag = (_cand("thermal_hysteresis", "hysteresis", 300, False), _cand("thermal_gradient", "thermal_lag", 270, True),
+                       _cand("thermal_lag", "thermal_lag", 260, True))
+    def picked(pool):  # identities: CandidateResult holds NaN, so == is never true
+        top, blocker = _next_selection(pool, cfg)
+        return top and top.effect, blocker and blocker.effect
+
+    assert picked([hyst, grad, lag]) == ("thermal_gradient", "thermal_hysteresis")  # another family leads: withheld
+    lag.significant = False
+    assert picked([lag, grad]) == ("thermal_gradient", None)  # outranked by its own family: named
+    aliased = _cand("stress_relaxation", "hysteresis", 400, False, novelty=0.001)
+    assert picked([aliased, grad]) == ("thermal_gradient", None)  # an untestable candidate does not block
+    assert picked([hyst]) == (None, None)
+
+
+def test_sub_threshold_hysteresis_is_not_named_as_a_lag():
+    # seed found by benchmarks/bench_diagnosis.py (A12): hysteresis leads on ΔBIC but misses the
+    # held-out-gain threshold while the gradient lag passes it; naming the lag was a misattribution
+    case = draw_case("hysteresis", seed=10074, level="sub")
+    _, r = compare_measurement(case.twin, case.measurement, [])
+    assert not r["missing_effect_detected"] and r["confidence"] == "uncertain"
+    assert r["withheld"][0]["outranked_by_family"] == "hysteresis"
+    assert "none is named" in r["finding"]
+
+
 def test_two_simultaneous_effects_are_both_selected():
     case = draw_case("lag_and_scale_factor", seed=8)
     _, r = compare_measurement(case.twin, case.measurement, [])

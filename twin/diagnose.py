@@ -13,8 +13,10 @@ Pipeline (diagnosis-methods §1):
 4. **Screen** every registered effect not in the model on its parameter grid: prewhitened F-test,
    Bonferroni over every test, ΔBIC, held-out gain by interleaved-block cross-validation.
    Decision: p_adj < 0.01 AND ΔBIC > 10 AND held-out gain > 5 %.
-5. **Forward selection** for several effects; a confidence label from the slow-residual share and
-   run consistency.
+5. **Forward selection** for several effects: the best-ranked significant candidate is named,
+   unless a testable candidate of another family outranks it (more ΔBIC, short of a threshold);
+   then nothing is named, the pair is reported as ``withheld`` and the confidence is uncertain.
+   A confidence label from the slow-residual share and run consistency.
 
 Compare is blind: it sees the scenario's ``twin``, ``device.sensor`` and ``test_plan`` and the
 measurement's columns, never ``device.effects`` or ground truth.
@@ -512,6 +514,7 @@ class Diagnosis:
     slow_share: float | None
     run_consistent: bool | None
     segments: dict
+    withheld: list[dict] = field(default_factory=list)
 
     @property
     def rms_residual_g(self) -> float:
@@ -596,6 +599,27 @@ def _run_consistency(problem: Problem, cal: Calibration, cand: CandidateResult) 
     return bool(stats.f.sf(F, k, dof) > 0.001)
 
 
+def _testable(c: CandidateResult, cfg: DiagnosisConfig) -> bool:
+    return c.novelty >= cfg.alias_novelty and get_effect(c.effect).identifiable
+
+
+def _next_selection(pool: list[CandidateResult], cfg: DiagnosisConfig):
+    """The best-ranked significant testable candidate, and what outranks it if it cannot be claimed.
+
+    A significant candidate ranked below a testable one of *another* family (more ΔBIC, but short
+    of a threshold, e.g. held-out gain) is not claimed: the evidence prefers the other family, so
+    naming either would be a guess. Returns (candidate or None, blocking candidate or None).
+    """
+    above: list[CandidateResult] = []
+    for c in pool:
+        if not _testable(c, cfg):
+            continue
+        if c.significant:
+            return c, next((b for b in above if b.family != c.family), None)
+        above.append(c)
+    return None, None
+
+
 def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | None = None) -> Diagnosis:
     """Calibrate, audit, screen, select; see the module docstring."""
     cfg = problem.config
@@ -609,8 +633,14 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
     selected: list[CandidateResult] = []
     pool = first
     extra = None
+    withheld: list[dict] = []
     while pool and len(selected) < cfg.max_added:
-        top = next((c for c in pool if c.significant), None)
+        top, blocker = _next_selection(pool, cfg)
+        if blocker is not None:
+            withheld.append({"effect": top.effect, "family": top.family, "outranked_by": blocker.effect,
+                             "outranked_by_family": blocker.family,
+                             "delta_bic": [top.delta_bic, blocker.delta_bic]})
+            break
         if top is None:
             break
         selected.append(top)
@@ -640,7 +670,7 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
             if get_effect(n).family == "scale_factor":
                 untestable.append({"effect": n, "family": "scale_factor", "reason": "orientation not logged",
                                    "remedy": REMEDY["scale_factor"]})
-    testable = [c for c in first if c.novelty >= cfg.alias_novelty and get_effect(c.effect).identifiable]
+    testable = [c for c in first if _testable(c, cfg)]
     J = problem.avg(cal.X_full)
     Q = _orthonormal(J)
     perps = {}
@@ -708,13 +738,13 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
         confident = slow >= 0.5 and consistent is not False and not confounded
         confidence = "confident" if confident else "uncertain"
     else:
-        confidence = "uncertain" if confounded else "none"
+        confidence = "uncertain" if confounded or withheld else "none"
     folds = _cv_folds(problem)
     heldout = float(np.sqrt(_heldout_sse(problem.avg(cal.X_full), problem.avg(problem.y - cal.fixed_full), folds)
                             / problem.run_avg.size))
     seg = _segments(problem, cal.residual)
     d = Diagnosis(cal, problem, first, selected, aliases, untestable, model_aliased, floor, noise_floor_model_g,
-                  confidence, "", heldout, slow, consistent, seg)
+                  confidence, "", heldout, slow, consistent, seg, withheld)
     d.finding = finding_text(d)
     return d
 
@@ -759,6 +789,12 @@ def finding_text(d: Diagnosis) -> str:
                                                       if (d.slow_share or 0) < 0.5 else "its coefficient differs between runs"
                                                       if d.run_consistent is False else
                                                       "temperature is confounded with the per-run offsets") + ".")
+    elif d.withheld:
+        w = d.withheld[0]
+        parts.append(f"{w['effect']} passes the significance tests, but {w['outranked_by']} ({w['outranked_by_family']}) "
+                     f"explains more of the residual (ΔBIC {w['delta_bic'][1]:.0f} vs {w['delta_bic'][0]:.0f}) without "
+                     f"passing them: the data do not say which effect is missing, so none is named. To separate "
+                     f"them: {REMEDY.get(w['outranked_by_family'], 'a different test plan')}.")
     else:
         parts.append(f"No missing effect found: residual RMS {_fmt_mg(rms)} against a noise floor of "
                      f"{_fmt_mg(d.noise_floor_g)}.")
@@ -825,6 +861,7 @@ def result_json(d: Diagnosis) -> dict:
         "parameters": params,
         "missing_effect_detected": bool(d.selected),
         "selected": [c.effect for c in d.selected],
+        "withheld": d.withheld,
         "confidence": d.confidence,
         "candidates": cands,
         "aliases": d.aliases,
