@@ -164,8 +164,8 @@ class BPNN(RegressorMixin, BaseEstimator):
         block = max(1, n // 200)  # interleaved blocks: every part of the record is seen in both sets
         use_val = self.early_stopping and self.validation_fraction > 0 and n >= 20
         val = ((np.arange(n) // block) % max(2, int(round(1 / self.validation_fraction))) == 0) if use_val else np.zeros(n, bool)
-        tr = torch.as_tensor(~val)
-        vm = torch.as_tensor(val)
+        split = {"train": (Xs[torch.as_tensor(~val)], ys[torch.as_tensor(~val)]),
+                 "val": (Xs[torch.as_tensor(val)], ys[torch.as_tensor(val)])}  # indexed once, not per step
         d = X.shape[1]
         theta0 = (np.asarray(self.init_weights, float).ravel() if self.init_weights is not None
                   else init_weights(d, self.hidden_size, rng)[0])
@@ -175,8 +175,9 @@ class BPNN(RegressorMixin, BaseEstimator):
         theta = torch.tensor(theta0[None, :], dtype=torch.float64, requires_grad=True)
         h, act = self.hidden_size, self.activation
 
-        def loss_on(mask):
-            e = forward(theta, Xs[mask], h, act)[0] - ys[mask]
+        def loss_on(part):
+            Xp, yp = split[part]
+            e = forward(theta, Xp, h, act)[0] - yp
             return (e * e).mean()
 
         self.loss_curve_, self.validation_scores_ = [], []
@@ -194,18 +195,18 @@ class BPNN(RegressorMixin, BaseEstimator):
         while n_done < int(self.max_iter):
             def closure():
                 opt.zero_grad()
-                loss = loss_on(tr)
+                loss = loss_on("train")
                 loss.backward()
                 return loss
 
             opt.step(closure)
             n_done += chunk
             with torch.no_grad():
-                loss = loss_on(tr)
+                loss = loss_on("train")
             self.loss_curve_.append(float(loss))
             if use_val:
                 with torch.no_grad():
-                    v = float(loss_on(vm))
+                    v = float(loss_on("val"))
                 self.validation_scores_.append(v)
                 if v < best[0] - self.tol:
                     best, stall = (v, theta.detach().clone()), 0
