@@ -79,6 +79,50 @@ def population_mse(theta, X, y, hidden: int, activation: str = "tanh", chunk: in
     return sse / X.shape[0]
 
 
+def _derivative_from_output(torch, name: str, A):
+    """Activation derivative from its output (in place): tanh 1 − a², sigmoid a(1 − a), relu [a > 0]."""
+    if name == "tanh":
+        return A.mul_(A).neg_().add_(1.0)
+    if name == "sigmoid":
+        return A.mul_(1.0 - A)
+    return (A > 0).to(A.dtype)
+
+
+def mse_and_gradient(theta: np.ndarray, X, y, hidden: int, activation: str = "tanh", gradient: bool = True,
+                     chunk: int = 16384):
+    """Mean squared error of one network (flat weights ``theta``) on (X, y), and its gradient.
+
+    Back-propagation written out (Rumelhart et al. 1986), float64, no autograd graph: with
+    A = act(X W1 + b1) and e = A W2 + b2 − y, ∂/∂W2 = 2Aᵀe/n, ∂/∂W1 = 2Xᵀ[(e W2ᵀ) ⊙ act′]/n.
+    Chunks of ``chunk`` samples keep A in cache (2.7× faster than whole arrays on 350k samples).
+    Returns ``(mse, gradient)`` as (float, ndarray), or ``(mse, None)`` with ``gradient=False``.
+    """
+    torch = _torch()
+    th = torch.as_tensor(np.asarray(theta, dtype=np.float64))
+    n, d = X.shape
+    i = d * hidden
+    W1, b1 = th[:i].view(d, hidden), th[i : i + hidden]
+    W2, b2 = th[i + hidden : i + 2 * hidden], th[-1]
+    g = torch.zeros_like(th)
+    gW1, gb1, gW2 = g[:i].view(d, hidden), g[i : i + hidden], g[i + hidden : i + 2 * hidden]
+    act = _act(torch, activation)
+    sse = 0.0
+    with torch.no_grad():
+        for a in range(0, n, chunk):
+            Xc = X[a : a + chunk]
+            A = act(torch.addmm(b1, Xc, W1))
+            e = torch.mv(A, W2).add_(b2).sub_(y[a : a + chunk])
+            sse += float(torch.dot(e, e))
+            if not gradient:
+                continue
+            gW2.add_(torch.mv(A.T, e))
+            g[-1] += e.sum()
+            dZ = _derivative_from_output(torch, activation, A).mul_(torch.outer(e, W2))
+            gW1.addmm_(Xc.T, dZ)
+            gb1.add_(dZ.sum(0))
+    return sse / n, (g.mul_(2.0 / n).numpy() if gradient else None)
+
+
 def init_weights(n_inputs: int, hidden: int, rng: np.random.Generator, size: int = 1) -> np.ndarray:
     """Glorot-uniform weights, zero biases, for ``size`` networks (size, n_params)."""
     lim1 = np.sqrt(6.0 / (n_inputs + hidden))
@@ -154,7 +198,6 @@ class BPNN(RegressorMixin, BaseEstimator):
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         y = np.asarray(y, float).ravel()
         rng = np.random.default_rng(self.random_state)
-        torch.manual_seed(int(rng.integers(2**31)))
         self.x_mean_, self.x_scale_ = X.mean(axis=0), X.std(axis=0)
         self.x_scale_[self.x_scale_ == 0] = 1.0
         self.y_mean_, self.y_scale_ = float(y.mean()), float(y.std()) or 1.0
@@ -164,61 +207,66 @@ class BPNN(RegressorMixin, BaseEstimator):
         block = max(1, n // 200)  # interleaved blocks: every part of the record is seen in both sets
         use_val = self.early_stopping and self.validation_fraction > 0 and n >= 20
         val = ((np.arange(n) // block) % max(2, int(round(1 / self.validation_fraction))) == 0) if use_val else np.zeros(n, bool)
-        split = {"train": (Xs[torch.as_tensor(~val)], ys[torch.as_tensor(~val)]),
-                 "val": (Xs[torch.as_tensor(val)], ys[torch.as_tensor(val)])}  # indexed once, not per step
+        Xtr, ytr = Xs[torch.as_tensor(~val)].contiguous(), ys[torch.as_tensor(~val)].contiguous()
+        Xval, yval = Xs[torch.as_tensor(val)], ys[torch.as_tensor(val)]
         d = X.shape[1]
         theta0 = (np.asarray(self.init_weights, float).ravel() if self.init_weights is not None
                   else init_weights(d, self.hidden_size, rng)[0])
         if theta0.size != n_parameters(d, self.hidden_size):
             raise ValueError(f"init_weights has {theta0.size} values; a {d}-{self.hidden_size}-1 network has "
                              f"{n_parameters(d, self.hidden_size)}")
-        theta = torch.tensor(theta0[None, :], dtype=torch.float64, requires_grad=True)
         h, act = self.hidden_size, self.activation
-
-        def loss_on(part):
-            Xp, yp = split[part]
-            e = forward(theta, Xp, h, act)[0] - yp
-            return (e * e).mean()
-
         self.loss_curve_, self.validation_scores_ = [], []
-        best = (np.inf, theta.detach().clone())
-        stall = 0
-        # L-BFGS runs in chunks of 10 iterations between validation checks: stepped one iteration
-        # per call, torch's L-BFGS stalls once a line search fails (its state carries over).
-        chunk = 1 if self.solver == "adam" else 10
-        if self.solver == "adam":
-            opt = torch.optim.Adam([theta], lr=self.learning_rate)
-        else:
-            opt = torch.optim.LBFGS([theta], lr=1.0, max_iter=chunk, history_size=20, line_search_fn="strong_wolfe",
-                                    tolerance_change=1e-12)
-        n_done = 0
-        while n_done < int(self.max_iter):
-            def closure():
-                opt.zero_grad()
-                loss = loss_on("train")
-                loss.backward()
-                return loss
+        state = {"best": (np.inf, theta0.copy()), "stall": 0, "n": 0}
+        every = 1 if self.solver == "adam" else 10  # L-BFGS: validation every 10 iterations
 
-            opt.step(closure)
-            n_done += chunk
-            with torch.no_grad():
-                loss = loss_on("train")
-            self.loss_curve_.append(float(loss))
+        def check(theta: np.ndarray, train_loss: float) -> bool:
+            """Record the losses; True when early stopping says stop."""
+            state["n"] += 1
+            if state["n"] % every:
+                return False
+            self.loss_curve_.append(float(train_loss))
             if use_val:
-                with torch.no_grad():
-                    v = float(loss_on("val"))
+                v = float(mse_and_gradient(theta, Xval, yval, h, act, gradient=False)[0])
                 self.validation_scores_.append(v)
-                if v < best[0] - self.tol:
-                    best, stall = (v, theta.detach().clone()), 0
+                if v < state["best"][0] - self.tol:
+                    state["best"], state["stall"] = (v, theta.copy()), 0
                 else:
-                    stall += 1
-                    if stall >= self.n_iter_no_change:
-                        break
+                    state["stall"] += 1
+                    return state["stall"] >= self.n_iter_no_change
             elif len(self.loss_curve_) > 1 and abs(self.loss_curve_[-2] - self.loss_curve_[-1]) < self.tol:
-                break
-        final = best[1] if use_val else theta.detach()
-        self.coef_ = final[0].numpy().copy()
-        self.n_iter_ = n_done
+                return True
+            return False
+
+        if self.solver == "lbfgs":
+            # scipy's L-BFGS-B on an analytic gradient, as MLPRegressor does: no autograd graph per call
+            from scipy.optimize import minimize
+
+            def callback(intermediate_result):
+                if check(intermediate_result.x, intermediate_result.fun):
+                    raise StopIteration
+
+            from threadpoolctl import threadpool_limits
+
+            # scipy's BLAS on 61-vectors gains nothing from threads, and its spinning threads fight
+            # torch's OpenMP threads for the cores (20× slower on 2 cores without this limit)
+            with threadpool_limits(1, user_api="blas"):
+                res = minimize(lambda th: mse_and_gradient(th, Xtr, ytr, h, act), theta0, jac=True,
+                               method="L-BFGS-B", callback=callback,
+                               options={"maxiter": int(self.max_iter), "maxcor": 20, "ftol": 1e-15, "gtol": 1e-10})
+            final = res.x
+        else:
+            theta = torch.tensor(theta0, dtype=torch.float64, requires_grad=True)
+            opt = torch.optim.Adam([theta], lr=self.learning_rate)
+            for _ in range(int(self.max_iter)):
+                loss, grad = mse_and_gradient(theta.detach().numpy(), Xtr, ytr, h, act)
+                theta.grad = torch.as_tensor(grad)
+                opt.step()
+                if check(theta.detach().numpy(), loss):
+                    break
+            final = theta.detach().numpy()
+        self.coef_ = (state["best"][1] if use_val else final).copy()
+        self.n_iter_ = state["n"]
         return self
 
     def predict(self, X):

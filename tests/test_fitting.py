@@ -6,7 +6,7 @@ from sklearn.base import clone
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from fitting import BPNN, CONVENTIONAL, EXTENSION, GA, PAPER, PSO, PSOGA, EvolvedBPNN, FeatureSet, PolynomialCompensator
-from fitting.network import forward, init_weights, n_parameters, population_mse
+from fitting.network import forward, init_weights, mse_and_gradient, n_parameters, population_mse
 from fitting.optimizers import EQ45_BOUNDS, EQ45_MINIMUM, eq45
 
 ESTIMATORS = [
@@ -70,6 +70,22 @@ def test_population_evaluation_equals_one_by_one(activation, dtype, rtol):
     # float32: the hidden layer is rounded to 2^-24 relative; float64 agrees to summation order
     np.testing.assert_allclose(batched.numpy(), torch.stack(single).numpy(), rtol=rtol)
     assert n_parameters(4, 10) == pop.shape[1] == 61
+
+
+@pytest.mark.parametrize("activation", ["tanh", "relu", "sigmoid"])
+def test_analytic_gradient_equals_autograd(activation):
+    import torch
+
+    rng = np.random.default_rng(4)
+    X = torch.as_tensor(rng.normal(size=(500, 3)))
+    y = torch.as_tensor(rng.normal(size=500))
+    theta = init_weights(3, 7, rng)[0] + rng.normal(0, 0.3, n_parameters(3, 7))
+    mse, grad = mse_and_gradient(theta, X, y, 7, activation)
+    t = torch.tensor(theta[None, :], requires_grad=True)
+    ref = ((forward(t, X, 7, activation)[0] - y) ** 2).mean()
+    ref.backward()
+    assert mse == pytest.approx(float(ref), rel=1e-13)
+    np.testing.assert_allclose(grad, t.grad[0].numpy(), rtol=1e-10, atol=1e-14)
 
 
 def test_bpnn_learns_a_smooth_function():
