@@ -217,14 +217,12 @@ class BPNN(RegressorMixin, BaseEstimator):
                              f"{n_parameters(d, self.hidden_size)}")
         h, act = self.hidden_size, self.activation
         self.loss_curve_, self.validation_scores_ = [], []
-        state = {"best": (np.inf, theta0.copy()), "stall": 0, "n": 0}
+        state = {"best": (np.inf, theta0.copy()), "stall": 0, "n": 0, "recorded": -1}
         every = 1 if self.solver == "adam" else 10  # L-BFGS: validation every 10 iterations
 
-        def check(theta: np.ndarray, train_loss: float) -> bool:
-            """Record the losses; True when early stopping says stop."""
-            state["n"] += 1
-            if state["n"] % every:
-                return False
+        def record(theta: np.ndarray, train_loss: float) -> bool:
+            """Record the losses at iteration state["n"]; True when early stopping says stop."""
+            state["recorded"] = state["n"]
             self.loss_curve_.append(float(train_loss))
             if use_val:
                 v = float(mse_and_gradient(theta, Xval, yval, h, act, gradient=False)[0])
@@ -238,15 +236,18 @@ class BPNN(RegressorMixin, BaseEstimator):
                 return True
             return False
 
+        def check(theta: np.ndarray, train_loss: float) -> bool:
+            state["n"] += 1
+            return state["n"] % every == 0 and record(theta, train_loss)
+
         if self.solver == "lbfgs":
             # scipy's L-BFGS-B on an analytic gradient, as MLPRegressor does: no autograd graph per call
             from scipy.optimize import minimize
+            from threadpoolctl import threadpool_limits
 
             def callback(intermediate_result):
                 if check(intermediate_result.x, intermediate_result.fun):
                     raise StopIteration
-
-            from threadpoolctl import threadpool_limits
 
             # scipy's BLAS on 61-vectors gains nothing from threads, and its spinning threads fight
             # torch's OpenMP threads for the cores (20× slower on 2 cores without this limit)
@@ -265,6 +266,8 @@ class BPNN(RegressorMixin, BaseEstimator):
                 if check(theta.detach().numpy(), loss):
                     break
             final = theta.detach().numpy()
+        if state["recorded"] != state["n"]:  # the last iterate is judged too (converged between checks)
+            record(final, mse_and_gradient(final, Xtr, ytr, h, act, gradient=False)[0])
         self.coef_ = (state["best"][1] if use_val else final).copy()
         self.n_iter_ = state["n"]
         return self

@@ -95,6 +95,11 @@ def test_bpnn_learns_a_smooth_function():
     m = BPNN(hidden_size=10, max_iter=300, random_state=0).fit(X, y)
     assert np.mean((m.predict(X) - y) ** 2) < 1e-3
     assert m.n_iter_ >= 10 and m.loss_curve_[-1] < m.loss_curve_[0]
+    # fewer iterations than one validation interval: the last iterate is still judged and kept
+    short = BPNN(hidden_size=10, max_iter=5, random_state=0).fit(X, y)
+    start = BPNN(hidden_size=10, max_iter=0, random_state=0).fit(X, y)
+    assert short.n_iter_ == 5 and not np.array_equal(short.coef_, start.coef_)
+    assert np.mean((short.predict(X) - y) ** 2) < np.mean((start.predict(X) - y) ** 2)
 
 
 def test_features_name_and_compose():
