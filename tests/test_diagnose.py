@@ -15,8 +15,8 @@ SEEDS = range(2000, 2020)  # 20 seeds per case (the Monte-Carlo benchmark runs 2
 FAMILY_CASES = {
     "thermal_lag": "thermal_lag_2node",  # two RC nodes vs the one-node candidate
     "hysteresis": "creep_2term",  # two-term Prony creep vs one term
-    "scale_factor": "scale_factor",  # ±1 g runs
-    "aging": "aging",
+    "scale_factor": "scale_factor_cubic",  # ±1 g runs; s1·ΔT + s3·ΔT³ vs s1·ΔT + s2·ΔT²
+    "aging": "aging_log",  # c·ln(1 + t/t0), t0 off the candidate's, vs a linear rate
     "warmup": "warmup",  # τ drawn off the grid
 }
 

@@ -5,8 +5,9 @@ The device = the twin + one hidden module, through the same simulator. Test plan
 25 °C at 1 and 2 °C/min with 30-min dwells, two runs (+1 g, −1 g), a power cycle in each run,
 logged at 1 Hz; noise stack: white (218 µg/√Hz), Gauss–Markov bias instability, 0.98 mg
 quantisation, thermometer noise, a turn-on bias per run. Forms are mismatched on purpose where
-the case says so (two-node lag, two-term creep, off-grid τ). The case names given to files are
-neutral; the truth stays in memory.
+the case says so (two-node lag, two-term creep, off-grid τ, a cubic scale-factor tempco against the
+linear + quadratic candidate, logarithmic settling against the linear aging rate). The case names
+given to files are neutral; the truth stays in memory.
 """
 
 from __future__ import annotations
@@ -30,7 +31,9 @@ CASES = {
     "hysteresis": "hysteresis",
     "creep_2term": "hysteresis",
     "scale_factor": "scale_factor",
+    "scale_factor_cubic": "scale_factor",
     "aging": "aging",
+    "aging_log": "aging",
     "warmup": "warmup",
     "probe_offset": None,
     "scale_factor_one_orientation": None,
@@ -42,7 +45,7 @@ CASES = {
 #: detectable RMS over σ of the noise on 10-s means (diagnosis-methods §3.1 item 7)
 LEVEL_BANDS = {"clear": (1.5, 3.0), "marginal": (0.5, 1.0), "sub": (0.1, 0.3)}
 #: cases whose hidden term is linear in one amplitude, so the level can be set exactly
-LINEAR_CASES = {"hysteresis", "creep_2term", "scale_factor", "aging", "warmup"}
+LINEAR_CASES = {"hysteresis", "creep_2term", "scale_factor", "scale_factor_cubic", "aging", "aging_log", "warmup"}
 
 
 def detectable_ratio(m: Measurement, twin: LoadedScenario, hidden_g: np.ndarray, noise_g: np.ndarray,
@@ -147,10 +150,18 @@ def draw_case(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) 
         truth["tc1_ppm_per_c"] = tc
         if kind == "scale_factor_one_orientation":
             test_plan["run_applied_g"] = [1.0]
+    elif kind == "scale_factor_cubic":  # no cubic term in the library: added to the output below
+        twin_effects = ["static_bias_tc"]
+        device["scale_factor_tc"] = {"tc1_ppm_per_c": _u(rng, 20, 60)}
+        truth.update(tc1_ppm_per_c=device["scale_factor_tc"]["tc1_ppm_per_c"], tc3_ppm_per_c3=_u(rng, 1e-3, 3e-3))
     elif kind == "aging":
         rate = _u(rng, 0.01, 0.015) if sub else _u(rng, 0.04, 0.06) if marginal else _u(rng, 0.12, 0.25)
         device["aging_drift"] = {"rate_mg_per_h": rate}
         truth["rate_mg_per_h"] = rate
+    elif kind == "aging_log":  # settling c·ln(1 + t/t0), t0 off the candidate's fixed 3600 s
+        device["aging_drift"] = {"rate_mg_per_h": _u(rng, 0.02, 0.06), "log_mg": _u(rng, 0.8, 2.0),
+                                 "t0_s": float(np.exp(rng.uniform(np.log(8000), np.log(30000))))}
+        truth.update(device["aging_drift"])
     elif kind == "warmup":
         amp = _u(rng, 0.1, 0.15) if sub else _u(rng, 0.35, 0.5) if marginal else _u(rng, 0.8, 1.6)
         device["warmup"] = {"amplitude_mg": amp * (1 if rng.random() < 0.5 else -1), "tau_s": _u(rng, 40, 250)}
@@ -161,7 +172,8 @@ def draw_case(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) 
     elif kind == "noise_misspecified":  # 2x stronger, 3x longer-correlated than nominal
         sensor.update(noise_density_ug_per_sqrt_hz=2 * 218.0, bias_instability_mg=0.1, bias_instability_tau_s=900.0)
     _AMPLITUDE = {"thermal_hysteresis": ["k_mg_per_c"], "stress_relaxation": ["k1_mg_per_c", "k2_mg_per_c"],
-                  "scale_factor_tc": ["tc1_ppm_per_c"], "aging_drift": ["rate_mg_per_h"], "warmup": ["amplitude_mg"]}
+                  "scale_factor_tc": ["tc1_ppm_per_c"], "aging_drift": ["rate_mg_per_h", "log_mg"],
+                  "warmup": ["amplitude_mg"]}
     scenario = {
         "seed": int(seed), "program": _PROGRAM,
         "chamber": {"model": "lumped", "lumped": lumped, "thermometer": thermometer},
@@ -176,18 +188,24 @@ def draw_case(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) 
         ds = simulate(loaded)
         noise = ds["truth/noise_white_g"] + ds["truth/noise_bias_instability_g"] + ds["truth/quantisation_g"]
         hidden = sum((ds[f"truth/effects/{n}_g"] for n in hidden_names), np.zeros(len(ds))) if hidden_names else None
+        m = from_dataset(ds)
+        if "tc3_ppm_per_c3" in truth:  # the cubic scale-factor term, s3·ΔT³ on the die, odd in g
+            cubic = truth["tc3_ppm_per_c3"] * 1e-6 * (ds["temperature/die_c"] - 25.0) ** 3 * m.applied_g
+            m.output_g = m.output_g + cubic
+            hidden = hidden + cubic
         if band is None or attempt == 1:
             break
-        m0 = from_dataset(ds)
-        ratio = detectable_ratio(m0, twin, hidden, noise)
+        ratio = detectable_ratio(m, twin, hidden, noise)
         target = _u(rng, *band)
         factor = target / ratio if ratio > 0 else 1.0
         for name in hidden_names:
             for amp in _AMPLITUDE.get(name, []):
-                device[name][amp] *= factor
-                truth[amp] = device[name][amp]
+                if amp in device[name]:
+                    device[name][amp] *= factor
+                    truth[amp] = device[name][amp]
+        if "tc3_ppm_per_c3" in truth:
+            truth["tc3_ppm_per_c3"] *= factor
         truth["target_ratio"] = target
-    m = from_dataset(ds)
     if kind == "out_of_library":  # slow unlogged disturbance (humidity-like), 3-h period, 0.3-0.5 mg
         amp, phase = _u(rng, 0.3, 0.5) * 1e-3, _u(rng, 0, 2 * np.pi)
         hidden = amp * np.sin(2 * np.pi * m.time_s / 10800.0 + phase)
