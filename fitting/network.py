@@ -3,7 +3,8 @@
 The weights of a d-h-1 network are one flat vector θ = [W1 (d·h), b1 (h), W2 (h), b2 (1)], so a
 *population* of networks is one (P, n_params) tensor: :func:`population_mse` evaluates every
 member in batched tensor operations (never one network at a time in Python), which is what GA,
-PSO and PSO-GA need for their fitness.
+PSO and PSO-GA need for their fitness. Back-propagation itself (:func:`mse_and_gradient`) is
+written out in float64 and driven by scipy's L-BFGS-B or torch's Adam.
 
 References
 ----------
