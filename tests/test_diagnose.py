@@ -178,6 +178,9 @@ def test_real_tofupilot_loop_names_an_effect_and_the_error_falls():
     assert base["missing_effect_detected"]
     top = base["candidates"][0]
     assert top["family"] in ("thermal_lag", "hysteresis")  # rate-dependent / path-dependent, not a static term
+    # one cycle at one ramp rate cannot tell a lag from hysteresis: named, but not with confidence
+    assert base["confidence"] == "uncertain" and {"thermal_hysteresis", "stress_relaxation"} & set(base["rivals"])
+    assert "cannot tell it from" in base["finding"]
     after = json.loads(run_cli("compare", "scenarios/paper_iis328dq.yaml", str(TOFU), *TOFU_ARGS,
                                "--with-effect", top["effect"], "--json", "-").stdout)
     assert after["rms_residual_g"] < 0.5 * base["rms_residual_g"]

@@ -515,6 +515,7 @@ class Diagnosis:
     run_consistent: bool | None
     segments: dict
     withheld: list[dict] = field(default_factory=list)
+    rivals: list[str] = field(default_factory=list)  # effects of other families aliased with the named one
 
     @property
     def rms_residual_g(self) -> float:
@@ -726,7 +727,7 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
                         if a["aliased_with"].startswith("offset_run") else REMEDY.get(get_effect(a["effect"]).family, "")})
     # noise floor, confidence
     floor = white_noise_sigma_from_differences(cal.residual, problem.m.run_index)
-    slow, consistent = None, None
+    slow, consistent, rivals = None, None, []
     if selected:
         top = selected[0]
         X = problem.avg(top.columns_full)
@@ -735,7 +736,10 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
         after = y2 - J2 @ np.linalg.lstsq(J2, y2, rcond=None)[0]
         slow = _slow_share(problem, cal.residual_avg, after)
         consistent = _run_consistency(problem, cal, top)
-        confident = slow >= 0.5 and consistent is not False and not confounded
+        # a family the data cannot tell from another is a guess between them, however well it fits
+        rivals = sorted({e for a in aliases if top.effect in a["effects"] for e in a["effects"]
+                         if get_effect(e).family != top.family})
+        confident = slow >= 0.5 and consistent is not False and not confounded and not rivals
         confidence = "confident" if confident else "uncertain"
     else:
         confidence = "uncertain" if confounded or withheld else "none"
@@ -744,7 +748,7 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
                             / problem.run_avg.size))
     seg = _segments(problem, cal.residual)
     d = Diagnosis(cal, problem, first, selected, aliases, untestable, model_aliased, floor, noise_floor_model_g,
-                  confidence, "", heldout, slow, consistent, seg, withheld)
+                  confidence, "", heldout, slow, consistent, seg, withheld, rivals)
     d.finding = finding_text(d)
     return d
 
@@ -788,6 +792,8 @@ def finding_text(d: Diagnosis) -> str:
                                                       f"{100 * (d.slow_share or 0):.0f} % of the slow residual)"
                                                       if (d.slow_share or 0) < 0.5 else "its coefficient differs between runs"
                                                       if d.run_consistent is False else
+                                                      f"this data cannot tell it from {' / '.join(d.rivals)}"
+                                                      if d.rivals else
                                                       "temperature is confounded with the per-run offsets") + ".")
     elif d.withheld:
         w = d.withheld[0]
@@ -862,6 +868,7 @@ def result_json(d: Diagnosis) -> dict:
         "missing_effect_detected": bool(d.selected),
         "selected": [c.effect for c in d.selected],
         "withheld": d.withheld,
+        "rivals": d.rivals,
         "confidence": d.confidence,
         "candidates": cands,
         "aliases": d.aliases,
