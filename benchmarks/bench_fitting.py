@@ -116,7 +116,7 @@ def fitness_benchmark(Xs: np.ndarray, ys: np.ndarray) -> dict:
 
     def our_kernel(solutions):
         counted[0] += len(solutions)
-        return population_mse(solutions, X32, y32, HIDDEN).to(torch.float32)
+        return population_mse(torch.tensor(np.asarray(solutions)), X32, y32, HIDDEN).to(torch.float32)
 
     evo_rate = evotorch_rate(user_fitness, generations)
     # the same library handed our kernel: how much of the ratio is the kernel, how much the loop
