@@ -37,6 +37,8 @@ def test_sealed_csv_right_family_first_and_error_falls_to_noise(tmp_path, family
     top = result["candidates"][0]
     assert top["family"] == family and top["significant"], result["finding"]
     assert result["missing_effect_detected"]
+    # lag and hysteresis candidates share an alias group, but the evidence separates them here
+    assert result["confidence"] == "confident" and result["rivals"] == []
     after = _compare_csv(tmp_path, case, "--with-effect", top["effect"])
     assert after["rms_residual_g"] <= 1.10 * case.noise_only_rms_g
     assert not after["missing_effect_detected"] or after["selected"] != [top["effect"]]

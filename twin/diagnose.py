@@ -736,9 +736,11 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
         after = y2 - J2 @ np.linalg.lstsq(J2, y2, rcond=None)[0]
         slow = _slow_share(problem, cal.residual_avg, after)
         consistent = _run_consistency(problem, cal, top)
-        # a family the data cannot tell from another is a guess between them, however well it fits
+        # an aliased effect of another family with at least half the named one's ΔBIC is a rival
+        # explanation: naming either is then a guess, however well it fits
+        dbic = {c.effect: c.delta_bic for c in first}
         rivals = sorted({e for a in aliases if top.effect in a["effects"] for e in a["effects"]
-                         if get_effect(e).family != top.family})
+                         if get_effect(e).family != top.family and dbic.get(e, -np.inf) >= 0.5 * top.delta_bic})
         confident = slow >= 0.5 and consistent is not False and not confounded and not rivals
         confidence = "confident" if confident else "uncertain"
     else:
