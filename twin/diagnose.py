@@ -515,7 +515,7 @@ class Diagnosis:
     run_consistent: bool | None
     segments: dict
     withheld: list[dict] = field(default_factory=list)
-    rivals: list[str] = field(default_factory=list)  # effects of other families aliased with the named one
+    rivals: list[str] = field(default_factory=list)  # other families aliased with the named one, ≥ ½ its ΔBIC
 
     @property
     def rms_residual_g(self) -> float:
