@@ -153,3 +153,38 @@ def test_twin_benchmark_quick_json(tmp_path):
     ext = next(row for row in b["table1"] if row["model"] == "extension_bpnn_dTdt")
     assert twin["ratio_mean"] <= 1.05 and ext["ratio_mean"] <= 1.05  # the extensions reach the floor
     assert (tmp_path / "rep" / "report.html").is_file()
+
+
+def test_benchmark_features_reference_the_training_data_for_every_model(monkeypatch):
+    """ΔT = T − T0 with T0 the first training temperature, for every model in turn (a timer once
+    overwrote T0 after the first model, so later models saw a clock reading as T0)."""
+    from dataclasses import replace
+
+    import twin.benchmark as tb
+    from twin.measurement import Measurement
+
+    seen = {}
+
+    class Recorder:
+        def __init__(self, name):
+            self.name = name
+
+        def fit(self, X, y):
+            seen[self.name] = X
+            return self
+
+        def predict(self, X):
+            return np.zeros(len(X))
+
+    real = tb._models(True, 0)
+    monkeypatch.setattr(tb, "_models", lambda quick, seed: {n: (f, Recorder(n)) for n, (f, _) in real.items()})
+    monkeypatch.setattr(tb, "_twin_compensator", lambda loaded, train, test: np.zeros(test.time_s.size))
+    t = np.arange(200.0)
+    temp = 20.0 + 0.05 * t
+    m = Measurement(t, temp, np.ones_like(t), np.ones_like(t), np.zeros(t.size, np.int16), np.zeros(t.size, bool),
+                    True, ["<test>"])
+    tb._evaluate_split(None, True, 0, m, m, np.zeros(t.size))
+    assert set(seen) == set(real)
+    for name, (features, _) in real.items():
+        expected = replace(features, t0_c=20.0).transform(temp, t)
+        np.testing.assert_array_equal(seen[name], expected, err_msg=name)

@@ -89,14 +89,14 @@ def _evaluate_split(loaded, quick, seed, train_m, test_m, noise_test, record_his
     y_train = train_m.output_g - train_m.applied_g
     truth_test = test_m.applied_g
     out, hist, extra = {}, {}, {}
-    t0 = float(train_m.temperature_c[0])  # ΔT's reference is fixed by the training data
+    t_ref_c = float(train_m.temperature_c[0])  # ΔT's reference is fixed by the training data
     for name, (features, model) in _models(quick, seed).items():
-        features = replace(features, t0_c=t0)
+        features = replace(features, t0_c=t_ref_c)
         Xtr = features.transform(train_m.temperature_c, train_m.time_s)
         Xte = features.transform(test_m.temperature_c, test_m.time_s)
-        t0 = time.perf_counter()
+        start = time.perf_counter()
         model.fit(Xtr, y_train)
-        fit_s = time.perf_counter() - t0
+        fit_s = time.perf_counter() - start
         compensated = test_m.output_g - model.predict(Xte)
         out[name] = float(np.mean((compensated - truth_test) ** 2))
         extra[name] = {"fit_s": fit_s}
@@ -104,10 +104,10 @@ def _evaluate_split(loaded, quick, seed, train_m, test_m, noise_test, record_his
             scale = float(np.std(y_train)) ** 2
             hist[name] = {"mse_g2_by_iteration": [h * scale for h in model.history_],
                           "fitness_evaluations": model.n_evaluations_, "bp_iterations": model.network_.n_iter_}
-    t0 = time.perf_counter()
+    start = time.perf_counter()
     pred = _twin_compensator(loaded, train_m, test_m)
     out["physics_twin"] = float(np.mean((test_m.output_g - pred - truth_test) ** 2))
-    extra["physics_twin"] = {"fit_s": time.perf_counter() - t0}
+    extra["physics_twin"] = {"fit_s": time.perf_counter() - start}
     out["noise_floor"] = float(np.mean(noise_test**2))
     return out, hist, extra
 
