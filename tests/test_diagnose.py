@@ -39,6 +39,8 @@ def test_sealed_csv_right_family_first_and_error_falls_to_noise(tmp_path, family
     assert result["missing_effect_detected"]
     # lag and hysteresis candidates share an alias group, but the evidence separates them here
     assert result["confidence"] == "confident" and result["rivals"] == []
+    if any(top["effect"] in a["effects"] and len(a["families"]) > 1 for a in result["aliases"]):
+        assert "the evidence separates them here" in result["finding"]
     after = _compare_csv(tmp_path, case, "--with-effect", top["effect"])
     assert after["rms_residual_g"] <= 1.10 * case.noise_only_rms_g
     assert not after["missing_effect_detected"] or after["selected"] != [top["effect"]]

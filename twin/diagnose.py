@@ -811,9 +811,19 @@ def finding_text(d: Diagnosis) -> str:
                          "or structure outside the library remains (see the Allan deviation and dwell plots).")
     remedies: dict[str, list[str]] = {}
     top_effects = {c.effect for c in d.selected}
+    dbic = {c.effect: c.delta_bic for c in d.candidates}
     for a in d.aliases:
         if a.get("aliased_with") == "per-run offsets":
             continue
+        if d.selected and "aliased_with" not in a and d.selected[0].effect in a["effects"] and not d.rivals:
+            top = d.selected[0]
+            others = [e for e in a["effects"] if get_effect(e).family != top.family and e in dbic]
+            if others:  # alike in shape, yet the evidence tells them apart: say so, not "not separable"
+                best = max(others, key=dbic.get)
+                parts.append(f"{' / '.join(a['effects'])} are alike in shape with this test plan, but the evidence "
+                             f"separates them here: {top.effect} ΔBIC {top.delta_bic:.0f} against "
+                             f"{dbic[best]:.0f} for {best}.")
+                continue
         if "aliased_with" in a or top_effects & set(a["effects"]):
             remedies.setdefault(a["remedy"], []).append(" / ".join(a["effects"]) +
                                                         (f" (with {a['aliased_with']})" if "aliased_with" in a else ""))
