@@ -188,3 +188,12 @@ def test_benchmark_features_reference_the_training_data_for_every_model(monkeypa
     for name, (features, _) in real.items():
         expected = replace(features, t0_c=20.0).transform(temp, t)
         np.testing.assert_array_equal(seen[name], expected, err_msg=name)
+
+
+def test_benchmark_verdicts_call_sub_threshold_differences_level():
+    from twin.benchmark import TIE_PERCENT, _compare
+
+    mse = {"a": 1.0, "b": 1.0 + 0.5 * TIE_PERCENT / 100, "c": 1.05}
+    assert "are level" in _compare("a", "b", mse, "A", "B")
+    assert "A beats C" in _compare("a", "c", mse, "A", "C") and "(4.8 % lower)" in _compare("a", "c", mse, "A", "C")
+    assert "does NOT beat" in _compare("c", "a", mse, "C", "A")

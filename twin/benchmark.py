@@ -209,8 +209,15 @@ def _tables(tests, table2, extrap, ramp, timings, quick) -> dict:
     }
 
 
+#: relative MSE difference below which two compensators are called level, not one beating the other
+TIE_PERCENT = 0.1
+
+
 def _compare(a: str, b: str, mean: dict, la: str, lb: str) -> str:
     d = (mean[b] - mean[a]) / mean[b] * 100
+    if abs(d) < TIE_PERCENT:
+        return (f"{la} and {lb} are level: MSE {mean[a]:.3e} vs {mean[b]:.3e} g² ({abs(d):.2f} % apart, "
+                f"under {TIE_PERCENT} %).")
     if d > 0:
         return f"{la} beats {lb}: MSE {mean[a]:.3e} vs {mean[b]:.3e} g² ({d:.1f} % lower)."
     return f"{la} does NOT beat {lb}: MSE {mean[a]:.3e} vs {mean[b]:.3e} g² ({-d:.1f} % higher)."
