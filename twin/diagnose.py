@@ -333,6 +333,7 @@ class CandidateResult:
     columns_full: np.ndarray | None = None
     significant: bool = False
     rms_residual_g: float = float("nan")
+    refined_values: dict[str, float] | None = None  # grid_values refined between grid points (named effect)
 
 
 def _screen_columns(problem: Problem, cal: Calibration, cls: type[Effect], values: dict[str, float]):
@@ -445,6 +446,32 @@ def _test_candidate(problem: Problem, J: np.ndarray, y: np.ndarray, X: np.ndarra
     cov = rss1 / dof * np.linalg.pinv(Xp.T @ Xp)
     half = 1.96 * np.sqrt(np.clip(np.diag(cov), 0, None))
     return float(n * np.log(rss0 / rss1) - m * np.log(n)), float(stats.f.sf(F, m, dof)), 1 - rss1 / rss0, coef, half
+
+
+def refine_grid_value(problem: Problem, cal: Calibration, c: CandidateResult) -> dict[str, float]:
+    """The candidate's one varying nonlinear parameter (τ, play width) refined between its grid
+    neighbours by maximising the screening ΔBIC on a log scale (diagnosis-methods §1 step 5)."""
+    cls = get_effect(c.effect)
+    grid = cls.grid()
+    varying = [k for k in c.grid_values if len({g[k] for g in grid}) > 1]
+    if len(varying) != 1 or c.columns_full is None:
+        return dict(c.grid_values)
+    k = varying[0]
+    vals = sorted({g[k] for g in grid})
+    i = vals.index(c.grid_values[k])
+    lo, hi = vals[max(i - 1, 0)], vals[min(i + 1, len(vals) - 1)]
+    if lo <= 0:
+        return dict(c.grid_values)
+    J = problem.avg(cal.X_full)
+    y = problem.avg(problem.y - cal.fixed_full)
+
+    def neg_dbic(log_v: float) -> float:
+        X = problem.avg(_screen_columns(problem, cal, cls, {**c.grid_values, k: float(np.exp(log_v))})[0])
+        return -_test_candidate(problem, J, y, X, problem.config.max_ar_order)[0]
+
+    res = minimize_scalar(neg_dbic, bounds=(np.log(lo), np.log(hi)), method="bounded", options={"xatol": 0.01})
+    best = float(np.exp(res.x)) if -res.fun > c.delta_bic else c.grid_values[k]
+    return {**c.grid_values, k: best}
 
 
 def screen(problem: Problem, cal: Calibration, candidates: list[str], extra: np.ndarray | None = None,
@@ -648,6 +675,8 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
         extra = np.column_stack([extra, top.columns_full]) if extra is not None else top.columns_full
         rest = [c.effect for c in pool if c.effect != top.effect and c.family != top.family]
         pool = screen(problem, cal, rest, extra=extra, n_tests=n_tests) if rest else []
+    if selected:  # the finding quotes the named effect's τ or width between grid points, not a grid point
+        selected[0].refined_values = refine_grid_value(problem, cal, selected[0])
     # error after adding each candidate (linear refit at its best grid point), at the sample rate
     A_full = cal.X_full
     A_avg = problem.avg(A_full)
@@ -781,8 +810,9 @@ def finding_text(d: Diagnosis) -> str:
     if d.selected:
         top = d.selected[0]
         sig = _SIGNATURE.get(top.family, f"The residual has the signature of {top.family}")
-        param = ", ".join(f"{k} ≈ {v:.3g}" for k, v in top.grid_values.items())
-        phys = {"thermal_lag": f"the die lags the thermometer by ≈{top.grid_values.get('tau_s', float('nan')):.0f} s"}.get(
+        values = top.refined_values or top.grid_values
+        param = ", ".join(f"{k} ≈ {v:.3g}" for k, v in values.items())
+        phys = {"thermal_lag": f"the die lags the thermometer by ≈{values.get('tau_s', float('nan')):.0f} s"}.get(
             top.effect, f"best explanation: {top.effect}" + (f" ({param})" if param else ""))
         parts.append(f"{sig}: {phys}. Adding {top.effect} lowers the RMS from {_fmt_mg(rms)} to "
                      f"{_fmt_mg(top.rms_residual_g)}; noise floor {_fmt_mg(d.noise_floor_g)} "
@@ -867,6 +897,7 @@ def result_json(d: Diagnosis) -> dict:
         "effect": c.effect, "family": c.family, "significant": c.significant, "rms_residual_g": c.rms_residual_g,
         "explained_fraction": c.explained_fraction, "delta_bic": c.delta_bic, "p_adjusted": c.p_adjusted,
         "heldout_gain": c.heldout_gain, "novelty": c.novelty, "parameters": c.grid_values,
+        **({"parameters_refined": c.refined_values} if c.refined_values else {}),
         "amplitudes": {k: {"value": v, "ci95_half_width": w} for k, (v, w) in c.amplitudes.items()},
     } for c in d.candidates]
     seg = {k: v for k, v in d.segments.items() if k != "kind"}
