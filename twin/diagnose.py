@@ -448,9 +448,11 @@ def _test_candidate(problem: Problem, J: np.ndarray, y: np.ndarray, X: np.ndarra
     return float(n * np.log(rss0 / rss1) - m * np.log(n)), float(stats.f.sf(F, m, dof)), 1 - rss1 / rss0, coef, half
 
 
-def refine_grid_value(problem: Problem, cal: Calibration, c: CandidateResult) -> dict[str, float]:
+def refine_grid_value(problem: Problem, cal: Calibration, c: CandidateResult, J: np.ndarray,
+                      y: np.ndarray) -> dict[str, float]:
     """The candidate's one varying nonlinear parameter (τ, play width) refined between its grid
-    neighbours by maximising the screening ΔBIC on a log scale (diagnosis-methods §1 step 5)."""
+    neighbours by maximising the screening ΔBIC on a log scale (diagnosis-methods §1 step 5);
+    ``J``, ``y``: the calibrated model's design and target on averages, as in :func:`screen`."""
     cls = get_effect(c.effect)
     grid = cls.grid()
     varying = [k for k in c.grid_values if len({g[k] for g in grid}) > 1]
@@ -462,8 +464,6 @@ def refine_grid_value(problem: Problem, cal: Calibration, c: CandidateResult) ->
     lo, hi = vals[max(i - 1, 0)], vals[min(i + 1, len(vals) - 1)]
     if lo <= 0:
         return dict(c.grid_values)
-    J = problem.avg(cal.X_full)
-    y = problem.avg(problem.y - cal.fixed_full)
 
     def neg_dbic(log_v: float) -> float:
         X = problem.avg(_screen_columns(problem, cal, cls, {**c.grid_values, k: float(np.exp(log_v))})[0])
@@ -631,6 +631,13 @@ def _testable(c: CandidateResult, cfg: DiagnosisConfig) -> bool:
     return c.novelty >= cfg.alias_novelty and get_effect(c.effect).identifiable
 
 
+def _cross_family_partners(top: CandidateResult, aliases: list[dict], candidates: list[CandidateResult]) -> dict:
+    """Effects of another family in an alias group with ``top`` (screened ones only) → their ΔBIC."""
+    dbic = {c.effect: c.delta_bic for c in candidates}
+    return {e: dbic[e] for a in aliases if "aliased_with" not in a and top.effect in a["effects"]
+            for e in a["effects"] if e in dbic and get_effect(e).family != top.family}
+
+
 def _next_selection(pool: list[CandidateResult], cfg: DiagnosisConfig):
     """The best-ranked significant testable candidate, and what outranks it if it cannot be claimed.
 
@@ -675,12 +682,12 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
         extra = np.column_stack([extra, top.columns_full]) if extra is not None else top.columns_full
         rest = [c.effect for c in pool if c.effect != top.effect and c.family != top.family]
         pool = screen(problem, cal, rest, extra=extra, n_tests=n_tests) if rest else []
-    if selected:  # the finding quotes the named effect's τ or width between grid points, not a grid point
-        selected[0].refined_values = refine_grid_value(problem, cal, selected[0])
-    # error after adding each candidate (linear refit at its best grid point), at the sample rate
     A_full = cal.X_full
     A_avg = problem.avg(A_full)
     y_avg = problem.avg(problem.y - cal.fixed_full)
+    if selected:  # the finding quotes the named effect's τ or width between grid points, not a grid point
+        selected[0].refined_values = refine_grid_value(problem, cal, selected[0], A_avg, y_avg)
+    # error after adding each candidate (linear refit at its best grid point), at the sample rate
     for c in first:
         X = c.columns_full
         beta = np.linalg.lstsq(np.column_stack([A_avg, problem.avg(X)]), y_avg, rcond=None)[0]
@@ -767,9 +774,7 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
         consistent = _run_consistency(problem, cal, top)
         # an aliased effect of another family with at least half the named one's ΔBIC is a rival
         # explanation: naming either is then a guess, however well it fits
-        dbic = {c.effect: c.delta_bic for c in first}
-        rivals = sorted({e for a in aliases if top.effect in a["effects"] for e in a["effects"]
-                         if get_effect(e).family != top.family and dbic.get(e, -np.inf) >= 0.5 * top.delta_bic})
+        rivals = sorted(e for e, b in _cross_family_partners(top, aliases, first).items() if b >= 0.5 * top.delta_bic)
         confident = slow >= 0.5 and consistent is not False and not confounded and not rivals
         confidence = "confident" if confident else "uncertain"
     else:
@@ -841,18 +846,17 @@ def finding_text(d: Diagnosis) -> str:
                          "or structure outside the library remains (see the Allan deviation and dwell plots).")
     remedies: dict[str, list[str]] = {}
     top_effects = {c.effect for c in d.selected}
-    dbic = {c.effect: c.delta_bic for c in d.candidates}
     for a in d.aliases:
         if a.get("aliased_with") == "per-run offsets":
             continue
-        if d.selected and "aliased_with" not in a and d.selected[0].effect in a["effects"] and not d.rivals:
+        if d.selected and not d.rivals:
             top = d.selected[0]
-            others = [e for e in a["effects"] if get_effect(e).family != top.family and e in dbic]
+            others = _cross_family_partners(top, [a], d.candidates)
             if others:  # alike in shape, yet the evidence tells them apart: say so, not "not separable"
-                best = max(others, key=dbic.get)
+                best = max(others, key=others.get)
                 parts.append(f"{' / '.join(a['effects'])} are alike in shape with this test plan, but the evidence "
                              f"separates them here: {top.effect} ΔBIC {top.delta_bic:.0f} against "
-                             f"{dbic[best]:.0f} for {best}.")
+                             f"{others[best]:.0f} for {best}.")
                 continue
         if "aliased_with" in a or top_effects & set(a["effects"]):
             remedies.setdefault(a["remedy"], []).append(" / ".join(a["effects"]) +
