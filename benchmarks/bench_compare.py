@@ -28,8 +28,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_json  # noqa: E402
 
 from twin.measurement import from_dataset, write_canonical_csv  # noqa: E402
-from twin.scenario import parse_scenario  # noqa: E402
-from twin.simulate import simulate  # noqa: E402
+from twin.model.scenario import parse_scenario  # noqa: E402
+from twin.model.simulate import simulate  # noqa: E402
 
 
 def make_csv(path: Path) -> int:
@@ -65,8 +65,8 @@ def main() -> None:
         # side by side: statsmodels GLSAR per candidate on the same averaged design
         from statsmodels.regression.linear_model import GLSAR
 
-        from twin.compare import twin_model
-        from twin.diagnose import DiagnosisConfig, Problem, _screen_columns, calibrate, candidate_names, screen
+        from twin.diagnosis.compare import twin_model
+        from twin.diagnosis.diagnose import DiagnosisConfig, Problem, _screen_columns, calibrate, candidate_names, screen
         from twin.effects import get_effect
         from twin.measurement import load_measurements
 

@@ -1,6 +1,6 @@
 """Monte-Carlo acceptance benchmark of the diagnosis (diagnosis-methods §3.3), written as JSON.
 
-For every case, ≥ 200 seeded datasets from :mod:`twin.hidden` (the twin + one hidden module,
+For every case, ≥ 200 seeded datasets from :mod:`twin.diagnosis.hidden` (the twin + one hidden module,
 realistic noise, two runs at ±1 g, power cycles, 1 Hz) are diagnosed blind; rates come with
 Wilson 95 % intervals. The level of each drawn effect is measured, not assumed: its detectable
 RMS (the hidden term after projecting out what the twin can absorb, on 10-s means) over the σ of
@@ -76,15 +76,15 @@ def wilson(k: int, n: int, z: float = 1.96) -> list[float]:
 def measured_ratio(case) -> float | None:
     if case.hidden_g is None:
         return None
-    from twin.hidden import detectable_ratio
+    from twin.diagnosis.hidden import detectable_ratio
 
     return detectable_ratio(case.measurement, case.twin, case.hidden_g, case.noise_g)
 
 
 def run_one(args):
     kind, level, followup, seed = args
-    from twin.compare import compare_measurement
-    from twin.hidden import draw_case
+    from twin.diagnosis.compare import compare_measurement
+    from twin.diagnosis.hidden import draw_case
 
     case = draw_case(kind, seed, level)
     _, r = compare_measurement(case.twin, case.measurement, [])

@@ -23,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _common import write_json  # noqa: E402
 
-from twin.doe import load_study, run_study  # noqa: E402
+from twin.studies.doe import load_study, run_study  # noqa: E402
 
 STUDY = """\
 name: throughput

@@ -26,8 +26,8 @@ from _common import write_json  # noqa: E402
 
 from sim.drift import play_operator  # noqa: E402
 from twin.effects import REGISTRY, EffectInputs  # noqa: E402
-from twin.scenario import parse_scenario  # noqa: E402
-from twin.simulate import simulate, simulate_thermal, time_base  # noqa: E402
+from twin.model.scenario import parse_scenario  # noqa: E402
+from twin.model.simulate import simulate, simulate_thermal, time_base  # noqa: E402
 
 PAPER = ROOT / "scenarios" / "paper_iis328dq.yaml"
 

@@ -36,8 +36,8 @@ import torch  # noqa: E402
 from fitting import EXTENSION, PAPER, EvolvedBPNN  # noqa: E402
 from fitting.network import forward, init_weights, n_parameters, population_mse  # noqa: E402
 from twin.measurement import from_dataset  # noqa: E402
-from twin.scenario import load_scenario  # noqa: E402
-from twin.simulate import simulate  # noqa: E402
+from twin.model.scenario import load_scenario  # noqa: E402
+from twin.model.simulate import simulate  # noqa: E402
 
 POP, HIDDEN = 50, 10
 

@@ -26,7 +26,7 @@ from _common import write_json  # noqa: E402
 
 from sim.comb_mesh import comb_parts, displacement_field_um  # noqa: E402
 from sim.microstructure import CombGeometry  # noqa: E402
-from twin.render import render_png  # noqa: E402
+from twin.reporting.render import render_png  # noqa: E402
 
 
 def matplotlib_png(geometry: CombGeometry, temperature_c: float, path: Path, exaggeration: float = 2000.0) -> None:

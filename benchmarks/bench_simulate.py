@@ -32,8 +32,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _common import write_json  # noqa: E402
 
-from twin.scenario import load_scenario, parse_scenario  # noqa: E402
-from twin.simulate import simulate, simulate_thermal, time_base  # noqa: E402
+from twin.model.scenario import load_scenario, parse_scenario  # noqa: E402
+from twin.model.simulate import simulate, simulate_thermal, time_base  # noqa: E402
 
 PAPER = ROOT / "scenarios" / "paper_iis328dq.yaml"
 
@@ -163,7 +163,7 @@ def main() -> None:
     sim_1d_s, _ = best_of(lambda: simulate(loaded_1d), args.repeat)
     sim_1d_coarse_s, _ = best_of(lambda: simulate(loaded_1d_coarse), args.repeat)
     imports = subprocess.run(
-        [sys.executable, "-c", "import sys, twin, twin.cli, twin.simulate; "
+        [sys.executable, "-c", "import sys, twin, twin.cli, twin.model.simulate; "
          "print(','.join(m for m in ('torch','pyvista','matplotlib') if m in sys.modules))"],
         capture_output=True, text=True, check=True).stdout.strip()
     result = {

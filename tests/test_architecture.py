@@ -28,7 +28,7 @@ def test_sim_and_fitting_import_nothing_from_the_other_packages(package, forbidd
 
 
 def test_import_twin_does_not_load_heavy_packages():
-    code = ("import sys, twin, twin.cli, twin.scenario, twin.simulate, twin.dataset; "
+    code = ("import sys, twin, twin.cli, twin.model.scenario, twin.model.simulate, twin.model.dataset; "
             "print(sorted(m for m in ('torch', 'pyvista', 'matplotlib', 'vtk') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"

@@ -3,7 +3,7 @@
 import pytest
 
 from sim import calculators as calc
-from twin.paper import design_report
+from twin.reporting.paper import design_report
 
 
 def test_eq34_control_interval():

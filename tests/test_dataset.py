@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, coarse_text, run_cli
-from twin.dataset import LAYOUT, read_hdf5, write_hdf5
-from twin.scenario import parse_scenario
-from twin.simulate import simulate
+from twin.model.dataset import LAYOUT, read_hdf5, write_hdf5
+from twin.model.scenario import parse_scenario
+from twin.model.simulate import simulate
 
 NOISE = {"truth/noise_white_g", "truth/noise_bias_instability_g", "truth/quantisation_g", "output/output_g",
          "output/output_digits", "temperature/thermometer_c", "truth/saturated"}

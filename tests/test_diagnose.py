@@ -5,8 +5,8 @@ import json
 import pytest
 
 from conftest import ROOT, SHARED, run_cli
-from twin.compare import compare_measurement
-from twin.hidden import draw_case
+from twin.diagnosis.compare import compare_measurement
+from twin.diagnosis.hidden import draw_case
 from twin.measurement import MeasurementError, load_measurements
 
 SEEDS = range(2000, 2020)  # 20 seeds per case (the Monte-Carlo benchmark runs 200)
@@ -107,13 +107,13 @@ def test_probe_offset_is_listed_untestable():
 
 
 def _cand(effect, family, dbic, significant, novelty=0.5):
-    from twin.diagnose import CandidateResult
+    from twin.diagnosis.diagnose import CandidateResult
 
     return CandidateResult(effect, family, {}, dbic, 0.0, 0.0, 0.1, 0.1, novelty, {}, significant=significant)
 
 
 def test_selection_withholds_a_significant_effect_outranked_by_another_family():
-    from twin.diagnose import DiagnosisConfig, _next_selection
+    from twin.diagnosis.diagnose import DiagnosisConfig, _next_selection
 
     cfg = DiagnosisConfig()
     hyst, grad, lag = (_cand("thermal_hysteresis", "hysteresis", 300, False), _cand("thermal_gradient", "thermal_lag", 270, True),

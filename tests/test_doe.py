@@ -10,7 +10,7 @@ import time
 import pytest
 
 from conftest import ROOT, run_cli
-from twin.doe import load_study, plan, read_runs
+from twin.studies.doe import load_study, plan, read_runs
 from twin.errors import ScenarioError
 
 STUDY = """\

@@ -10,8 +10,8 @@ from conftest import ROOT, SCENARIOS, coarse_text, run_cli
 from sim.drift import play_operator
 from twin.effects import REGISTRY, Composition, EffectInputs, get_effect
 from twin.errors import ModelError
-from twin.scenario import parse_scenario
-from twin.simulate import simulate
+from twin.model.scenario import parse_scenario
+from twin.model.simulate import simulate
 
 REQUIRED = {
     "comb_expansion": "scale_factor", "stiffness_tc": "scale_factor", "scale_factor_tc": "scale_factor",
@@ -250,7 +250,7 @@ def test_plugin_effect_from_a_scenario_is_simulated_and_listed(tmp_path):
     r = run_cli("run", str(scn), "-o", str(tmp_path / "p.h5"), "--json", "-")
     assert r.returncode == 0, r.stderr
     assert "humidity_swelling" in json.loads(r.stdout)["effects"]
-    from twin.dataset import read_hdf5
+    from twin.model.dataset import read_hdf5
 
     col = read_hdf5(tmp_path / "p.h5")["truth/effects/humidity_swelling_g"]
     assert col[-1] == pytest.approx(2e-3 * (1 - np.exp(-3000 / 20000)), rel=1e-9)  # end point included

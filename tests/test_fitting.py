@@ -160,7 +160,7 @@ def test_benchmark_features_reference_the_training_data_for_every_model(monkeypa
     overwrote T0 after the first model, so later models saw a clock reading as T0)."""
     from dataclasses import replace
 
-    import twin.benchmark as tb
+    import twin.compensation.benchmark as tb
     from twin.measurement import Measurement
 
     seen = {}
@@ -191,7 +191,7 @@ def test_benchmark_features_reference_the_training_data_for_every_model(monkeypa
 
 
 def test_benchmark_verdicts_call_sub_threshold_differences_level():
-    from twin.benchmark import TIE_PERCENT, _compare
+    from twin.compensation.benchmark import TIE_PERCENT, _compare
 
     mse = {"a": 1.0, "b": 1.0 + 0.5 * TIE_PERCENT / 100, "c": 1.05}
     assert "are level" in _compare("a", "b", mse, "A", "B")

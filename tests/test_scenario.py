@@ -6,8 +6,8 @@ import pytest
 
 from conftest import SCENARIOS, coarse_text, run_cli
 from twin.errors import ScenarioError
-from twin.scenario import json_schema, load_scenario, parse_scenario
-from twin.simulate import simulate
+from twin.model.scenario import json_schema, load_scenario, parse_scenario
+from twin.model.simulate import simulate
 
 GOOD = """\
 program:
@@ -107,7 +107,7 @@ def _field_paths(model, prefix=""):
 
 def test_every_scenario_key_is_documented():
     from conftest import ROOT
-    from twin.scenario import HoldStep, RampStep, Scenario, StaircaseStep
+    from twin.model.scenario import HoldStep, RampStep, Scenario, StaircaseStep
 
     doc = (ROOT / "docs" / "scenario.md").read_text()
     missing = []
@@ -125,7 +125,7 @@ def test_every_scenario_key_is_documented():
 
 def test_dataset_layout_is_documented():
     from conftest import ROOT
-    from twin.dataset import LAYOUT
+    from twin.model.dataset import LAYOUT
 
     doc = (ROOT / "docs" / "dataset.md").read_text()
     assert [p for p in LAYOUT if f"`{p}`" not in doc] == []

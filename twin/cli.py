@@ -70,9 +70,9 @@ def run(
     """Simulate a chamber test and write the dataset (HDF5) with its ground truth."""
     from tqdm import tqdm
 
-    from twin.dataset import write_hdf5
-    from twin.scenario import load_scenario
-    from twin.simulate import STAGES, simulate, summary
+    from twin.model.dataset import write_hdf5
+    from twin.model.scenario import load_scenario
+    from twin.model.simulate import STAGES, simulate, summary
 
     try:
         loaded = load_scenario(scenario)
@@ -110,7 +110,7 @@ def schema(
     json_out: JsonOpt = None,
 ) -> None:
     """Print the JSON Schema of scenario files (for editors)."""
-    from twin.scenario import json_schema
+    from twin.model.scenario import json_schema
 
     s = json_schema()
     if output is not None:
@@ -131,7 +131,7 @@ def test_design(
     json_out: JsonOpt = None,
 ) -> None:
     """The paper's test-design numbers (eqs. 31-35) beside physically consistent time scales."""
-    from twin.paper import design_report
+    from twin.reporting.paper import design_report
 
     rows = design_report(lsb_mg, tcoff_mg_per_c, tcso_pct_per_c, chamber_length_m)
     if json_out != "-":
@@ -143,7 +143,7 @@ def test_design(
 @app.command()
 def paper(json_out: JsonOpt = None) -> None:
     """Each derived number of the paper next to what the code computes, with a verdict."""
-    from twin.paper import paper_report
+    from twin.reporting.paper import paper_report
 
     report = paper_report()
     if json_out != "-":
@@ -164,8 +164,8 @@ def comb(
     json_out: JsonOpt = None,
 ) -> None:
     """Comb thermal drift under each reading (P, S, H, HE): offset and scale-factor parts."""
-    from twin.comb import comb_report
-    from twin.scenario import load_scenario
+    from twin.reporting.comb import comb_report
+    from twin.model.scenario import load_scenario
 
     try:
         loaded = load_scenario(scenario)
@@ -196,7 +196,7 @@ def render(
 ) -> None:
     """Off-screen image of the comb cell deformed at a temperature, or a sweep as GIF/MP4."""
     from sim.microstructure import READINGS
-    from twin.scenario import load_scenario
+    from twin.model.scenario import load_scenario
 
     try:
         loaded = load_scenario(scenario)
@@ -207,7 +207,7 @@ def render(
             raise ValueError(f"-o {output}: a single image is written as .png (use --sweep for .gif/.mp4)")
         if sweep is not None and suffix not in (".gif", ".mp4"):
             raise ValueError(f"-o {output}: a sweep is written as .gif or .mp4")
-        from twin import render as rd
+        from twin.reporting import render as rd
 
         temps = rd.parse_sweep(sweep) if sweep is not None else None
     except (TwinError, ValueError) as exc:
@@ -240,7 +240,7 @@ def effects(
 
     try:
         if scenario is not None:
-            from twin.scenario import load_scenario
+            from twin.model.scenario import load_scenario
 
             load_scenario(scenario)
         for spec in plugin or []:
@@ -302,7 +302,7 @@ def compare(
     json_out: JsonOpt = None,
 ) -> None:
     """Compare the twin with a measurement: calibrate, show where it fails, name the missing effect."""
-    from twin.compare import run_compare
+    from twin.diagnosis.compare import run_compare
     from twin.measurement import ColumnMap
 
     try:
@@ -352,8 +352,8 @@ def benchmark(
     our dT/dt extension, the calibrated physics twin) on data whose truth is known."""
     from tqdm import tqdm
 
-    from twin.benchmark import optimizer_benchmark, run_benchmark
-    from twin.scenario import load_scenario
+    from twin.compensation.benchmark import optimizer_benchmark, run_benchmark
+    from twin.model.scenario import load_scenario
 
     try:
         loaded = load_scenario(scenario)
@@ -368,7 +368,7 @@ def benchmark(
         bar.set_description("optimisers on eq. (45)")
         result["optimizers"] = optimizer_benchmark(20)
     if report is not None:
-        from twin.benchmark_report import write_benchmark_report
+        from twin.compensation.report import write_benchmark_report
 
         write_benchmark_report(report, result)
     if json_out != "-":
@@ -396,7 +396,7 @@ def doe(
     """Run a design-of-experiment study; resumes where it stopped (finished runs are kept)."""
     from tqdm import tqdm
 
-    from twin.doe import load_study, plan, run_study, write_outputs
+    from twin.studies.doe import load_study, plan, run_study, write_outputs
 
     if executor not in ("local", "dask"):
         _fail(f"--executor must be 'local' or 'dask', got {executor!r}")

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.diagnose import Diagnosis
+from twin.diagnosis.diagnose import Diagnosis
 from twin.io import atomic_write_text
 
 LEDGER = "ledger.jsonl"
@@ -88,7 +88,7 @@ def _figures(d: Diagnosis, ledger: list[dict]) -> list[tuple[str, str]]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from twin.noise import allan_deviation
+    from twin.diagnosis.noise import allan_deviation
 
     p, cal, m = d.problem, d.calibration, d.problem.m
     t_h = m.time_s / 3600

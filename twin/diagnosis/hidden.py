@@ -20,8 +20,8 @@ import numpy as np
 import yaml
 
 from twin.measurement import Measurement, from_dataset, write_canonical_csv
-from twin.scenario import LoadedScenario, parse_scenario
-from twin.simulate import simulate
+from twin.model.scenario import LoadedScenario, parse_scenario
+from twin.model.simulate import simulate
 
 #: case → family the diagnosis must name (None: nothing to find)
 CASES = {
@@ -52,7 +52,7 @@ def detectable_ratio(m: Measurement, twin: LoadedScenario, hidden_g: np.ndarray,
                      average_s: float = 10.0) -> float:
     """RMS of the hidden term after projecting out what the twin absorbs (offsets, its free
     amplitudes), over the σ of the noise, both on ``average_s`` means."""
-    from twin.diagnose import DiagnosisConfig, Problem, _design, _orthonormal
+    from twin.diagnosis.diagnose import DiagnosisConfig, Problem, _design, _orthonormal
 
     p = Problem(m, DiagnosisConfig(average_s=average_s))
     X, _, _, _ = _design(p, twin.twin_composition())

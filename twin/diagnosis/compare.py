@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 
 from sim.sensor import logger_white_sigma_g
-from twin.diagnose import DiagnosisConfig, Problem, diagnose, result_json
+from twin.diagnosis.diagnose import DiagnosisConfig, Problem, diagnose, result_json
 from twin.effects import Composition, get_effect
 from twin.errors import ModelError, TwinError
 from twin.measurement import ColumnMap, Measurement, load_measurements
-from twin.scenario import LoadedScenario, load_scenario
+from twin.model.scenario import LoadedScenario, load_scenario
 
 
 def sensor_noise_floor_g(loaded: LoadedScenario, rate_hz: float) -> float | None:
@@ -60,7 +60,7 @@ def run_compare(scenario: Path, measurements: list[Path], cmap: ColumnMap, with_
     d, result = compare_measurement(loaded, m, with_effects, average_s)
     ledger_dir = report if report is not None else (Path(json_out).parent if json_out not in (None, "-") else None)
     if ledger_dir is not None:
-        from twin.report import append_ledger, write_report
+        from twin.reporting.compare_report import append_ledger, write_report
 
         ledger = append_ledger(ledger_dir, d, result)
         result["ledger"] = [{k: e[k] for k in ("model", "rms_residual_g", "heldout_rms_g", "noise_floor_g", "delta_bic")}

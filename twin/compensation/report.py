@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from twin.io import atomic_write_text
-from twin.report import _png
+from twin.reporting.compare_report import _png
 
 
 def write_benchmark_report(directory: Path, result: dict) -> Path:

@@ -33,7 +33,7 @@ from scipy.optimize import lsq_linear, minimize_scalar
 
 from twin.effects import REGISTRY, Composition, Effect, EffectInputs, get_effect
 from twin.measurement import Measurement
-from twin.noise import ARModel, BlockAverager, fit_ar, white_noise_sigma_from_differences
+from twin.diagnosis.noise import ARModel, BlockAverager, fit_ar, white_noise_sigma_from_differences
 
 # What would make an effect testable or separable (diagnosis-methods §2).
 REMEDY = {

@@ -94,7 +94,7 @@ def _leaf_paths(data, prefix="") -> list[str]:
 
 def _schema_paths() -> list[str]:
     """Every settable dotted path of a scenario, from the schema (for "did you mean")."""
-    from twin.scenario import Scenario
+    from twin.model.scenario import Scenario
 
     paths = []
 
@@ -152,7 +152,7 @@ def _check_factor_path(path: str, base: dict) -> None:
 
 def load_study(path: str | Path) -> tuple[Study, dict, Path]:
     """Validate a study file; return it, the base scenario data, and the study's folder."""
-    from twin.scenario import _format_path, _where, load_yaml_mapping
+    from twin.model.scenario import _format_path, _where, load_yaml_mapping
 
     p = Path(path)
     if not p.is_file():
@@ -242,10 +242,10 @@ def resolve(study: Study, base: dict, point: dict, index: int, replicate: int) -
 
 def evaluate_run(job: dict, responses: list[str]) -> dict:
     """Simulate one resolved scenario and compute its responses (run in a worker process)."""
-    from twin.compare import compare_measurement
+    from twin.diagnosis.compare import compare_measurement
     from twin.measurement import from_dataset
-    from twin.scenario import parse_scenario
-    from twin.simulate import simulate
+    from twin.model.scenario import parse_scenario
+    from twin.model.simulate import simulate
 
     t0 = time.perf_counter()
     out = {"key": job["key"], "index": job["index"], "replicate": job["replicate"], "point": job["point"],

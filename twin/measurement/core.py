@@ -364,7 +364,7 @@ def write_canonical_csv(path: str | Path, time_s, temperature_c, output_g, appli
 
 
 def from_dataset(ds) -> Measurement:
-    """The logged columns of an in-memory simulated :class:`~twin.dataset.Dataset` (no truth)."""
+    """The logged columns of an in-memory simulated :class:`~twin.model.dataset.Dataset` (no truth)."""
     return Measurement(ds["time_s"].astype(float), ds["temperature/thermometer_c"].astype(float),
                        ds["output/output_g"].astype(float), ds["test/applied_g"].astype(float),
                        ds["test/run_index"].astype(np.int16), ds["test/power_on"].astype(bool), True, ["<dataset>"])

@@ -17,11 +17,11 @@ import yaml
 
 from fitting import BPNN, CONVENTIONAL, EXTENSION, PAPER, EvolvedBPNN, FeatureSet, PolynomialCompensator
 from fitting.optimizers import EQ45_BOUNDS, EQ45_MINIMUM, GA, PSO, PSOGA, eq45
-from twin.diagnose import DiagnosisConfig, Problem, calibrate
+from twin.diagnosis.diagnose import DiagnosisConfig, Problem, calibrate
 from twin.effects import Composition, get_effect
 from twin.measurement import from_dataset
-from twin.scenario import LoadedScenario, parse_scenario
-from twin.simulate import simulate
+from twin.model.scenario import LoadedScenario, parse_scenario
+from twin.model.simulate import simulate
 
 TABLE2_ITERATIONS = (14, 28, 42, 56, 70)
 

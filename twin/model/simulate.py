@@ -17,9 +17,9 @@ from sim.program import segment_kind
 from sim.sensor import logger_white_sigma_g, sensor_output
 from sim.thermal import ThermalResult, read_thermometer, simulate_chain
 from twin import __version__
-from twin.dataset import LAYOUT_VERSION, Dataset
+from twin.model.dataset import LAYOUT_VERSION, Dataset
 from twin.effects import EffectInputs
-from twin.scenario import LoadedScenario
+from twin.model.scenario import LoadedScenario
 
 STAGES = ("program", "thermal chain", "effects", "sensor")
 

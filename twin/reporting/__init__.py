@@ -1,0 +1,1 @@
+"""Reporting: the compare report, plots as display objects, the comb and paper reports, rendering."""

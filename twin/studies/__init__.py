@@ -1,0 +1,1 @@
+"""Studies: design-of-experiment runs over scenarios, local or on a Dask cluster."""
