@@ -58,7 +58,8 @@ def main() -> None:
     t = time_base(minimal)
     th = simulate_thermal(minimal, t)
     n = t.size
-    inputs = EffectInputs(t, th.die_c, th.probe_c, np.ones(n), np.zeros(n, np.int16), t)
+    inputs = EffectInputs(time_s=t, die_c=th.die_c, thermometer_c=th.probe_c, applied_g=np.ones(n),
+                          run_index=np.zeros(n, np.int16), time_since_power_on_s=t)
     per_effect = {}
     for name in all_effects + ["thermal_lag"]:
         eff = REGISTRY[name]()

@@ -29,7 +29,8 @@ def _inputs(n=20000, dt=1.0, seed=0):
     rng = np.random.default_rng(seed)
     applied = np.where((t // 1500) % 2 == 0, 1.0, -1.0)
     since = t - np.where(t >= n * dt / 2, n * dt / 2, 0)
-    return EffectInputs(t, temp, temp + rng.normal(0, 0.01, n), applied, np.zeros(n, np.int16), since)
+    return EffectInputs(time_s=t, die_c=temp, thermometer_c=temp + rng.normal(0, 0.01, n), applied_g=applied,
+                        run_index=np.zeros(n, np.int16), time_since_power_on_s=since)
 
 
 def _outputs(effect, inputs):
@@ -96,7 +97,8 @@ def test_temperature_effects_vanish_at_reference_without_history(name):
     n = 5000
     t = np.arange(n, dtype=float)
     flat = np.full(n, 25.0)
-    inputs = EffectInputs(t, flat.copy(), flat.copy(), np.ones(n), np.zeros(n, np.int16), t + 1e6)
+    inputs = EffectInputs(time_s=t, die_c=flat.copy(), thermometer_c=flat.copy(), applied_g=np.ones(n),
+                          run_index=np.zeros(n, np.int16), time_since_power_on_s=t + 1e6)
     effect = get_effect(name)()
     if effect.slot == "temperature":
         np.testing.assert_allclose(effect.die_temperature(inputs), 25.0, atol=1e-12)
@@ -109,7 +111,8 @@ def test_thermal_lag_step_response_is_exponential():
     n, dt = 4000, 0.5
     t = np.arange(n) * dt
     step = np.where(t > 0, 10.0, 0.0)
-    inputs = EffectInputs(t, step, step, np.ones(n), np.zeros(n, np.int16), t)
+    inputs = EffectInputs(time_s=t, die_c=step, thermometer_c=step, applied_g=np.ones(n),
+                          run_index=np.zeros(n, np.int16), time_since_power_on_s=t)
     one = get_effect("thermal_lag")(tau_s=100.0).die_temperature(inputs)
     # first-order hold spreads the step over the first interval: exact up to a dt/2 time shift
     np.testing.assert_allclose(one[1:], 10 * (1 - np.exp(-(t[1:] - dt / 2) / 100.0)), atol=1e-3)
@@ -124,7 +127,8 @@ def _cycle(rate_c_per_s, dt=1.0):
     legs = [np.arange(25, 55, rate_c_per_s * dt), np.arange(55, -5, -rate_c_per_s * dt), np.arange(-5, 25, rate_c_per_s * dt)]
     temp = np.concatenate(legs)
     t = np.arange(temp.size) * dt
-    return EffectInputs(t, temp, temp, np.ones(temp.size), np.zeros(temp.size, np.int16), t)
+    return EffectInputs(time_s=t, die_c=temp, thermometer_c=temp, applied_g=np.ones(temp.size),
+                        run_index=np.zeros(temp.size, np.int16), time_since_power_on_s=t)
 
 
 def test_slow_ramp_removes_lag_and_leaves_hysteresis():
@@ -159,7 +163,8 @@ def test_stress_relaxation_relaxes_in_dwells_with_tau():
     n = 40000
     t = np.arange(n, dtype=float)
     temp = np.where(t < 100, 25.0, 45.0)
-    x = EffectInputs(t, temp, temp, np.ones(n), np.zeros(n, np.int16), t)
+    x = EffectInputs(time_s=t, die_c=temp, thermometer_c=temp, applied_g=np.ones(n),
+                     run_index=np.zeros(n, np.int16), time_since_power_on_s=t)
     eff = get_effect("stress_relaxation")(k1_mg_per_c=0.5, tau_s=3600.0, k2_mg_per_c=0.0)
     b = eff.contribution(x).bias_g * 1e3
     assert b[101] == pytest.approx(0.5 * 20 * np.exp(-0.5 / 3600), rel=1e-3)

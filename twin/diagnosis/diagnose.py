@@ -83,7 +83,8 @@ class Problem:
             for s in _run_slices(m.run_index):
                 applied[s] = np.median(m.output_g[s])
         self.applied = applied
-        self.inputs = EffectInputs(m.time_s, temp, temp, applied, m.run_index, m.time_since_power_on_s())
+        self.inputs = EffectInputs(time_s=m.time_s, die_c=temp, thermometer_c=temp, applied_g=applied,
+                                   run_index=m.run_index, time_since_power_on_s=m.time_since_power_on_s())
         self.y = m.output_g - applied
         self.avg = BlockAverager.build(m.run_index, int(round(config.average_s * rate)))
         self.run_avg = self.avg.run_of_block
@@ -359,8 +360,7 @@ def _screen_columns(problem: Problem, cal: Calibration, cls: type[Effect], value
 def _temperature_derivative(problem: Problem, cal: Calibration, h: float = 0.5) -> np.ndarray:
     """∂(model output)/∂(die temperature) of the calibrated drift effects [g/°C]."""
     def total(shift):
-        inp = EffectInputs(cal.inputs.time_s, cal.inputs.die_c + shift, cal.inputs.thermometer_c, problem.applied,
-                           cal.inputs.run_index, cal.inputs.time_since_power_on_s)
+        inp = cal.inputs.replace(die_c=cal.inputs.die_c + shift, applied_g=problem.applied)
         out = np.zeros(problem.n)
         for e in cal.composition.drift_effects:
             out += np.broadcast_to(e.contribution(inp).output_g(problem.applied), (problem.n,))

@@ -47,20 +47,39 @@ class Parameter:
     screen: bool = True  # amplitude used when the effect is screened as a candidate
 
 
-@dataclass
+INPUT_NAMES = ("time_s", "die_c", "thermometer_c", "applied_g", "run_index", "time_since_power_on_s")
+
+
+@dataclass(kw_only=True)
 class EffectInputs:
     """Named, unit-bearing inputs an effect may read (all arrays on one time base).
 
     ``die_c`` is the true die temperature when simulating a device, and the twin's estimate of
     it (the measured temperature through the temperature slot) when modelling a measurement.
+    An input a measurement lacks is ``None``; :meth:`require` names it for the effect that reads it.
     """
 
     time_s: np.ndarray
-    die_c: np.ndarray
-    thermometer_c: np.ndarray
-    applied_g: np.ndarray
-    run_index: np.ndarray
-    time_since_power_on_s: np.ndarray
+    die_c: np.ndarray | None = None
+    thermometer_c: np.ndarray | None = None
+    applied_g: np.ndarray | None = None
+    run_index: np.ndarray | None = None
+    time_since_power_on_s: np.ndarray | None = None
+
+    def replace(self, **changes: np.ndarray) -> EffectInputs:
+        """A copy with some inputs changed."""
+        return EffectInputs(**{**{k: getattr(self, k) for k in INPUT_NAMES}, **changes})
+
+    def require(self, effect: type[Effect] | Effect) -> None:
+        """Raise :class:`ModelError` naming the effect and each input it ``reads`` that is missing."""
+        unknown = [r for r in effect.reads if r not in INPUT_NAMES]
+        if unknown:
+            raise ModelError(f"effect {effect.name!r} reads {', '.join(unknown)}, which is not an input; "
+                             f"inputs are {', '.join(INPUT_NAMES)}")
+        missing = [r for r in effect.reads if getattr(self, r) is None]
+        if missing:
+            raise ModelError(f"effect {effect.name!r} reads {', '.join(missing)}, which this measurement does not "
+                             "provide")
 
     @property
     def dt_s(self) -> float:
@@ -163,6 +182,7 @@ class Effect:
 
     def contribution(self, inputs: EffectInputs) -> Contribution:
         """The effect's bias and scale-factor change: Σ amplitude × basis."""
+        inputs.require(self)
         total = Contribution()
         for name, unit_contribution in self.basis(inputs).items():
             total = total + self.values[name] * unit_contribution
@@ -245,8 +265,8 @@ class Composition:
         slot = self.temperature_effect
         if slot is None:
             return inputs
-        return EffectInputs(inputs.time_s, slot.die_temperature(inputs), inputs.thermometer_c, inputs.applied_g,
-                            inputs.run_index, inputs.time_since_power_on_s)
+        inputs.require(slot)
+        return inputs.replace(die_c=slot.die_temperature(inputs))
 
     def evaluate(self, inputs: EffectInputs, device: bool = False) -> dict[str, Contribution]:
         """Per-effect contributions (drift effects only) after the temperature slot.
