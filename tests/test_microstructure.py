@@ -89,7 +89,7 @@ def test_cli_invalid_geometry_exits_2(tmp_path):
     bad = tmp_path / "g.yaml"
     bad.write_text("program:\n  steps: [{type: hold, dwell_s: 10}]\ndevice:\n  geometry: {u_um: 0.0553}\n")
     r = run_cli("comb", str(bad))
-    assert r.returncode == 2 and "bad" not in r.stderr.lower().split("error")[0]
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and r.stderr.startswith("twin: error: ")
     assert "g.yaml:4" in r.stderr and "closes at" in r.stderr and "Traceback" not in r.stderr
     neg = tmp_path / "n.yaml"
     neg.write_text("program:\n  steps: [{type: hold, dwell_s: 10}]\ndevice:\n  geometry: {b_um: -3}\n")

@@ -13,8 +13,10 @@ def test_paper_program_duration_and_levels():
     t = np.array([0, 3599.9, 3600, 3634.9, 3635, 3600 + 6124.9, 3600 + 6125, 19450 + 1])
     sp = p.setpoint_c(t)
     np.testing.assert_allclose(sp, [-20, -20, -20, -20, -19.6, 49.6, 50, -20], atol=1e-9)
-    # 41.1 degC/h average rate
-    assert 0.4 / 35 * 3600 == pytest.approx(41.14, abs=0.01)
+    # the staircase's average rate, from the compiled set-point: 70 °C over 6125 s = 41.14 °C/h
+    start, end = 3600.0, 3600.0 + 6125.0
+    assert (p.setpoint_c(np.array([end]))[0] - p.setpoint_c(np.array([start]))[0]) / (end - start) * 3600 == \
+        pytest.approx(41.14, abs=0.01)
 
 
 def test_ramp_and_hold_with_target():

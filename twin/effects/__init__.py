@@ -9,7 +9,6 @@ Loading a plugin runs the user's code.
 from __future__ import annotations
 
 import importlib
-import importlib.util
 import pkgutil
 import sys
 from importlib.metadata import entry_points
@@ -27,6 +26,7 @@ from twin.effects.base import (
     register,
 )
 from twin.errors import ModelError
+from twin.plugins import import_plugin
 
 ENTRY_POINT_GROUP = "tde_twin.effects"
 
@@ -50,28 +50,7 @@ def load_plugin(spec: str, base_dir: str | Path = ".") -> list[str]:
     """Import a plugin module (a ``.py`` path relative to ``base_dir``, or a module name) and
     return the names of the effects it registered. Runs the user's code."""
     before = set(REGISTRY)
-    path = Path(spec)
-    if spec.endswith(".py"):
-        path = path if path.is_absolute() else Path(base_dir) / path
-        if not path.is_file():
-            raise ModelError(f"plugin file not found: {path}")
-        mod_name = f"twin_plugin_{path.stem}_{abs(hash(str(path.resolve()))) % 10**8}"
-        if mod_name not in sys.modules:
-            module_spec = importlib.util.spec_from_file_location(mod_name, path)
-            module = importlib.util.module_from_spec(module_spec)
-            sys.modules[mod_name] = module
-            try:
-                module_spec.loader.exec_module(module)
-            except ModelError:
-                raise
-            except Exception as exc:
-                del sys.modules[mod_name]
-                raise ModelError(f"plugin {path} failed to load: {type(exc).__name__}: {exc}") from None
-    else:
-        try:
-            importlib.import_module(spec)
-        except ImportError as exc:
-            raise ModelError(f"plugin module {spec!r} cannot be imported: {exc}") from None
+    import_plugin(spec, base_dir, error=ModelError)
     return sorted(set(REGISTRY) - before)
 
 

@@ -1,0 +1,48 @@
+"""Import a user's module by path or name: the one mechanism behind every registry's plugins
+(effects, measurement readers, compensators, DOE responses). Loading a plugin runs its code."""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import sys
+from pathlib import Path
+from types import ModuleType
+
+from twin.errors import TwinError
+
+
+class PluginError(TwinError):
+    """A plugin could not be found or failed while loading."""
+
+
+def import_plugin(spec: str, base_dir: str | Path = ".", error: type[TwinError] = PluginError) -> ModuleType:
+    """Import ``spec``: a ``.py`` path (relative to ``base_dir``) or a module name.
+
+    A file is imported once per resolved path; a failure while it loads is reported as ``error``
+    with the exception's type and message, in one line, and leaves nothing in ``sys.modules``.
+    """
+    if not spec.endswith(".py"):
+        try:
+            return importlib.import_module(spec)
+        except ImportError as exc:
+            raise error(f"plugin module {spec!r} cannot be imported: {exc}") from None
+    path = Path(spec)
+    path = path if path.is_absolute() else Path(base_dir) / path
+    if not path.is_file():
+        raise error(f"plugin file not found: {path}")
+    mod_name = f"twin_plugin_{path.stem}_{abs(hash(str(path.resolve()))) % 10**8}"
+    if mod_name in sys.modules:
+        return sys.modules[mod_name]
+    module_spec = importlib.util.spec_from_file_location(mod_name, path)
+    module = importlib.util.module_from_spec(module_spec)
+    sys.modules[mod_name] = module
+    try:
+        module_spec.loader.exec_module(module)
+    except TwinError:
+        del sys.modules[mod_name]
+        raise
+    except (Exception, SystemExit) as exc:  # a plugin's own failure, named in one line
+        del sys.modules[mod_name]
+        raise error(f"plugin {path} failed to load: {type(exc).__name__}: {exc}") from None
+    return module
