@@ -8,11 +8,9 @@ deviation against a noise-only reference, the ranking, and the error falling ove
 
 from __future__ import annotations
 
-import base64
 import datetime as _dt
 import hashlib
 import html
-import io
 import json
 from pathlib import Path
 
@@ -73,144 +71,11 @@ def append_ledger(directory: Path, d: Diagnosis, result: dict) -> list[dict]:
     return entries + [entry]
 
 
-def _png(fig) -> str:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90, bbox_inches="tight")
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
-    return base64.b64encode(buf.getvalue()).decode()
-
-
 def _figures(d: Diagnosis, ledger: list[dict]) -> list[tuple[str, str]]:
-    import matplotlib
+    """(title, base64 PNG) of every display of the report."""
+    from twin.reporting.plots import diagnosis_displays, png_base64
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from twin.diagnosis.noise import allan_deviation
-
-    p, cal, m = d.problem, d.calibration, d.problem.m
-    t_h = m.time_s / 3600
-    stride = max(1, p.n // 20000)  # plotting 20k points shows the same picture
-    pred = p.applied + cal.prediction_minus_applied
-    r_mg = cal.residual * 1e3
-    figs = []
-    kind = d.segments["kind"]
-
-    fig, ax = plt.subplots(figsize=(10, 3.6))
-    ax.plot(t_h[::stride], m.output_g[::stride] * 1e3, ",", color="0.6", label="measured")
-    ax.plot(t_h[::stride], pred[::stride] * 1e3, "-", color="C0", lw=1, label="twin")
-    for k, c in (("heating", "C3"), ("cooling", "C0")):
-        sel = kind == k
-        if sel.any():
-            ax.fill_between(t_h[::stride], 0, 1, where=sel[::stride], transform=ax.get_xaxis_transform(), color=c,
-                            alpha=0.07, label=k)
-    ax.set_xlabel("time [h]")
-    ax.set_ylabel("output [mg]")
-    ax2 = ax.twinx()
-    ax2.plot(t_h[::stride], m.temperature_c[::stride], color="C1", lw=0.8)
-    ax2.set_ylabel("temperature [°C]", color="C1")
-    ax.legend(loc="upper left", fontsize=8, ncol=4)
-    figs.append(("Measured vs twin (heating/cooling shaded; temperature on the right)", _png(fig)))
-
-    fig, ax = plt.subplots(figsize=(10, 3.2))
-    ax.plot(t_h[::stride], r_mg[::stride], ",", color="0.5")
-    w = max(1, int(600 * p.rate_hz))
-    from scipy.ndimage import uniform_filter1d
-
-    ax.plot(t_h, uniform_filter1d(r_mg, w, mode="nearest"), color="C3", lw=1.2, label="10-min mean")
-    ax.axhspan(-2 * d.noise_floor_g * 1e3, 2 * d.noise_floor_g * 1e3, color="C2", alpha=0.12, label="±2σ noise floor")
-    ax.set_xlabel("time [h]")
-    ax.set_ylabel("residual [mg]")
-    ax.legend(fontsize=8)
-    figs.append(("Residual (measured − twin) with the noise band", _png(fig)))
-
-    fig, ax = plt.subplots(figsize=(6.5, 4.2))
-    ravg, tavg = p.avg(cal.residual) * 1e3, p.avg(p.inputs.die_c)
-    kavg = np.array(kind)[p.avg.starts]
-    for k, c in (("heating", "C3"), ("cooling", "C0"), ("dwell", "0.5")):
-        sel = kavg == k
-        ax.plot(tavg[sel], ravg[sel], ".", ms=3, color=c, label=k)
-    area = ", ".join(f"run {k}: {v:.2f}" for k, v in d.segments["loop_area_mg_c"].items())
-    ax.set_title(f"loop area ∮r dT [mg·°C]: {area}", fontsize=9)
-    ax.set_xlabel("temperature [°C]")
-    ax.set_ylabel(f"residual, {p.config.average_s:g}-s mean [mg]")
-    ax.legend(fontsize=8)
-    figs.append(("Hysteresis view: residual vs temperature", _png(fig)))
-
-    if m.applied_known and np.any(np.isclose(p.applied, 1)) and np.any(np.isclose(p.applied, -1)):
-        fig, ax = plt.subplots(figsize=(6.5, 4))
-        bins = np.linspace(tavg.min(), tavg.max(), 25)
-        aavg = p.avg(p.applied)
-        rp = [np.mean(ravg[(aavg > 0.9) & (tavg >= a) & (tavg < b)]) if np.any((aavg > 0.9) & (tavg >= a) & (tavg < b)) else np.nan
-              for a, b in zip(bins[:-1], bins[1:])]
-        rn = [np.mean(ravg[(aavg < -0.9) & (tavg >= a) & (tavg < b)]) if np.any((aavg < -0.9) & (tavg >= a) & (tavg < b)) else np.nan
-              for a, b in zip(bins[:-1], bins[1:])]
-        mid = 0.5 * (bins[1:] + bins[:-1])
-        ax.plot(mid, 0.5 * (np.array(rp) + rn), "o-", label="half-sum (bias-like)")
-        ax.plot(mid, 0.5 * (np.array(rp) - rn), "s-", label="half-difference (scale-factor-like)")
-        ax.set_xlabel("temperature [°C]")
-        ax.set_ylabel("residual [mg]")
-        ax.legend(fontsize=8)
-        figs.append(("±1 g half-sum and half-difference", _png(fig)))
-
-    # dwell settling: residual after each dwell start
-    dwell = kind == "dwell"
-    starts = np.flatnonzero(np.diff(dwell.astype(int)) == 1) + 1
-    if starts.size:
-        fig, ax = plt.subplots(figsize=(6.5, 3.8))
-        w = max(1, int(60 * p.rate_hz))
-        for s in starts[:8]:
-            e = s
-            while e < dwell.size and dwell[e]:
-                e += 1
-            seg = uniform_filter1d(r_mg[s:e], w, mode="nearest")
-            ax.plot((m.time_s[s:e] - m.time_s[s]) / 60, seg, lw=1)
-        ax.set_xlabel("time since dwell start [min]")
-        ax.set_ylabel("residual, 1-min mean [mg]")
-        figs.append(("Dwell settling (minutes: lag; hours: creep; flat: static)", _png(fig)))
-
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
-    ra = p.avg(cal.residual)
-    lags = np.arange(1, min(60, ra.size // 4))
-    acf = [np.corrcoef(ra[:-k], ra[k:])[0, 1] for k in lags]
-    axes[0].bar(lags * p.config.average_s / 60, acf, width=p.config.average_s / 60 * 0.8)
-    axes[0].axhline(1.96 / np.sqrt(ra.size), color="k", ls=":")
-    axes[0].axhline(-1.96 / np.sqrt(ra.size), color="k", ls=":")
-    axes[0].set_xlabel("lag [min]")
-    axes[0].set_ylabel("residual ACF")
-    taus, adev = allan_deviation(cal.residual, p.rate_hz)
-    axes[1].loglog(taus, adev * 1e3, label="residual")
-    axes[1].loglog(taus, d.noise_floor_g * 1e3 / np.sqrt(taus * p.rate_hz), "--", label="white noise at the floor")
-    if d.noise_floor_model_g:
-        axes[1].loglog(taus, d.noise_floor_model_g * 1e3 / np.sqrt(taus * p.rate_hz), ":", label="sensor model")
-    axes[1].set_xlabel("averaging time [s]")
-    axes[1].set_ylabel("Allan deviation [mg]")
-    axes[1].legend(fontsize=8)
-    figs.append(("Residual autocorrelation and Allan deviation against a noise-only reference", _png(fig)))
-
-    top = d.candidates[:8]
-    if top:
-        fig, ax = plt.subplots(figsize=(7, 3.6))
-        vals = [max(c.delta_bic, 0.1) for c in top]
-        colors = ["C3" if c.significant else "0.6" for c in top]
-        ax.barh([f"{c.effect} ({c.family})" for c in top][::-1], vals[::-1], color=colors[::-1])
-        ax.set_xscale("log")
-        ax.axvline(p.config.min_delta_bic, color="k", ls=":")
-        ax.set_xlabel("ΔBIC (red: significant)")
-        figs.append(("Candidate ranking", _png(fig)))
-
-    if len(ledger) > 1:
-        fig, ax = plt.subplots(figsize=(7, 3.6))
-        labels = ["+".join(e["model"]) if len(e["model"]) < 4 else f"… +{e['model'][-1]}" for e in ledger]
-        ax.plot(range(len(ledger)), [e["rms_residual_g"] * 1e3 for e in ledger], "o-", label="residual RMS")
-        ax.plot(range(len(ledger)), [e["noise_floor_g"] * 1e3 for e in ledger], "--", label="noise floor")
-        ax.set_xticks(range(len(ledger)), labels, rotation=20, ha="right", fontsize=7)
-        ax.set_ylabel("mg")
-        ax.legend(fontsize=8)
-        figs.append(("The error falling as effects are added (ledger)", _png(fig)))
-    return figs
+    return [(disp.title, png_base64(disp.plot())) for disp in diagnosis_displays(d, ledger)]
 
 
 def _table(rows: list[list], header: list[str]) -> str:
