@@ -1,0 +1,228 @@
+"""The reader registry: every registered format conforms, one file adds a format, suffixes and
+sniffing dispatch, and delimited logs with three output columns read as an ImuLog."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, SHARED
+from logfixtures import FIXTURES, G_MS2, chamber_run, write_canonical
+import twin.measurement as tm
+from twin.errors import TwinError
+
+TOFU = SHARED / "data" / "real" / "tofupilot_imu_thermal" / "imu_raw_data.tsv"
+TOFU_MAP = dict(time="timestamp", temperature="imu.temperature", time_unit="us", output_unit="m/s^2")
+
+
+def _measurements(result) -> list:
+    """A reader's result as single-axis measurements (every axis of every IMU)."""
+    if isinstance(result, tm.Measurement):
+        return [result]
+    logs = [result] if isinstance(result, tm.ImuLog) else result
+    return [g.axis(a) for g in logs for a in g.axes]
+
+
+@pytest.mark.parametrize("name", sorted(tm.readers()))
+def test_every_registered_reader_conforms(name, tmp_path):
+    reader = tm.readers()[name]
+    assert reader.name == name and reader.suffixes and all(s.startswith(".") for s in reader.suffixes)
+    assert callable(reader.read) and (reader.sniff is None or callable(reader.sniff))
+    assert name in FIXTURES, f"reader {name!r} has no fixture in tests/logfixtures.py FIXTURES"
+    filename, write = FIXTURES[name]
+    path = write(tmp_path / filename)
+    assert path.suffix in reader.suffixes and tm.find_reader(path) is reader
+    parts = _measurements(reader.read(path, tm.ReadOptions()))
+    assert parts
+    for m in parts:
+        assert isinstance(m, tm.Measurement) and len(m) > 10
+        tm.check(m, str(path))
+
+
+def test_each_fixture_is_sniffed_by_its_own_reader_only(tmp_path):
+    for name, (filename, write) in FIXTURES.items():
+        path = write(tmp_path / filename)
+        sniffed = {r.name for r in tm.readers().values() if r.sniff is not None and r.sniff(path)}
+        assert sniffed == {name}, (filename, sniffed)
+
+
+PLUGIN = '''
+"""A reader for 'kv' logs: one sample a line, ``t=..;temp=..;acc=..`` (s, °C, g)."""
+from pathlib import Path
+
+import numpy as np
+
+from twin.measurement import Measurement, check, register_reader
+
+
+def read(path, options):
+    rows = [dict(kv.split("=") for kv in line.split(";")) for line in Path(path).read_text().split()]
+    t, temp, acc = (np.array([float(r[k]) for r in rows]) for k in ("t", "temp", "acc"))
+    n = t.size
+    known = options.applied_g is not None
+    m = Measurement(t, temp, acc, np.full(n, options.applied_g if known else np.nan), np.zeros(n, np.int16),
+                    np.zeros(n, bool), known, [str(path)])
+    check(m, str(path))
+    return m
+
+
+register_reader("kv", [".kv"], read, sniff=lambda p: Path(p).read_bytes().startswith(b"t="))
+'''
+
+
+@pytest.fixture
+def kv_files(tmp_path):
+    plugin = tmp_path / "kvreader.py"
+    plugin.write_text(PLUGIN)
+    data = tmp_path / "run1.kv"
+    data.write_text("".join(f"t={k};temp={20 + 0.1 * k};acc={1 + 1e-4 * k}\n" for k in range(30)))
+    yield plugin, data
+    tm.unregister_reader("kv")
+
+
+def test_one_new_file_adds_a_format_end_to_end(kv_files):
+    plugin, data = kv_files
+    assert tm.find_reader(data).name == "delimited"  # before the plugin: text, so the catch-all tries it
+    added = tm.load_reader_plugin(plugin)
+    assert [r.name for r in added] == ["kv"] and "kv" in tm.readers()
+    m = tm.load_measurements([data, data], applied_g=1.0)
+    assert len(m) == 60 and m.runs == 2 and m.applied_known
+    np.testing.assert_allclose(m.output_g[:30], 1 + 1e-4 * np.arange(30))
+    copy = data.with_suffix(".log2")  # an unclaimed suffix: found by the plugin's sniffer
+    copy.write_bytes(data.read_bytes())
+    assert tm.find_reader(copy).name == "kv"
+
+
+def test_reader_plugin_by_module_name(kv_files, monkeypatch):
+    plugin, data = kv_files
+    monkeypatch.syspath_prepend(str(plugin.parent))
+    monkeypatch.delitem(sys.modules, "kvreader", raising=False)
+    assert [r.name for r in tm.load_reader_plugin("kvreader")] == ["kv"]
+    assert len(tm.load_measurements([data])) == 30
+
+
+@pytest.mark.parametrize("source,fragment", [
+    ("x = 1\n", "registered no reader"),
+    ("raise RuntimeError('boom')\n", "RuntimeError: boom"),
+])
+def test_bad_reader_plugins_fail_in_one_line(tmp_path, source, fragment):
+    plugin = tmp_path / f"bad_{abs(hash(source))}.py"
+    plugin.write_text(source)
+    with pytest.raises(tm.MeasurementError) as exc:
+        tm.load_reader_plugin(plugin)
+    assert fragment in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_register_reader_validates_its_arguments():
+    with pytest.raises(tm.MeasurementError, match="must start with '.'"):
+        tm.register_reader("nodot", ["csv"], lambda p, o: None)
+    with pytest.raises(tm.MeasurementError, match="callables"):
+        tm.register_reader("notcallable", [".q"], "read")
+    assert "nodot" not in tm.readers() and "notcallable" not in tm.readers()
+
+
+def test_a_suffix_claimed_twice_is_decided_by_sniffing(tmp_path):
+    first = tm.register_reader("amb_a", [".amb"], lambda p, o: "a", sniff=lambda p: Path(p).read_bytes()[:1] == b"A")
+    second = tm.register_reader("amb_b", [".amb"], lambda p, o: "b", sniff=lambda p: Path(p).read_bytes()[:1] == b"B")
+    try:
+        for content, expected in ((b"B...", second), (b"A...", first), (b"C...", first)):
+            (tmp_path / "f.amb").write_bytes(content)
+            assert tm.find_reader(tmp_path / "f.amb") is expected
+    finally:
+        tm.unregister_reader("amb_a")
+        tm.unregister_reader("amb_b")
+
+
+def test_unknown_format_names_the_file_and_the_known_formats(tmp_path):
+    f = tmp_path / "blob.xyz"
+    f.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(TwinError) as exc:
+        tm.load_measurements([f])
+    msg = str(exc.value)
+    assert str(f) in msg and "\n" not in msg
+    assert all(name in msg for name in tm.readers()) and ".ulg" in msg and ".bin" in msg
+
+
+def test_text_with_an_unclaimed_suffix_still_reads_as_delimited(tmp_path):
+    f = write_canonical(tmp_path / "chamber.export")
+    assert tm.find_reader(f).name == "delimited"
+    assert len(tm.load_measurements([f])) == 400
+    with pytest.raises(tm.MeasurementError, match="not found"):
+        tm.load_measurements([tmp_path / "missing.export"])
+
+
+def test_empty_csv_is_a_one_line_error(tmp_path):
+    f = tmp_path / "empty.csv"
+    f.write_text("")
+    with pytest.raises(tm.MeasurementError, match="empty file"):
+        tm.load_measurements([f])
+
+
+# ---- delimited logs with three output columns -----------------------------------------------
+
+def _three_axis_csv(path: Path) -> Path:
+    imu = chamber_run()[2]
+    t = (imu.time_us - imu.time_us[0]) * 1e-3
+    rows = [f"{a:.0f},{b:.5f},{x:.6f},{y:.6f},{z:.6f}" for a, b, (x, y, z) in zip(t, imu.temperature_c, imu.accel_ms2)]
+    path.write_text("t_ms,temp,ax,ay,az\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def test_three_output_columns_give_an_imu_log(tmp_path):
+    f = _three_axis_csv(tmp_path / "imu.csv")
+    base = dict(time="t_ms", temperature="temp", time_unit="ms", output_unit="m/s^2")
+    [by_keys] = tm.read_imu_logs(f, tm.ColumnMap(**base, x="ax", y="ay", z="az"))
+    [by_list] = tm.read_imu_logs(f, tm.ColumnMap(**base, output_cols=["ax", "ay", "az"]))
+    np.testing.assert_array_equal(by_keys.accel_g, by_list.accel_g)
+    assert by_keys.accel_g.shape == (400, 3) and by_keys.axes == ("x", "y", "z")
+    np.testing.assert_allclose(by_keys.accel_g[:, 2].mean(), -1.0, atol=0.01)
+    m = tm.load_measurements([f], tm.ColumnMap(**base, x="ax", y="ay", z="az", axis="y"), applied_g="unknown")
+    np.testing.assert_array_equal(m.output_g, by_keys.accel_g[:, 1])
+    assert not m.applied_known
+
+
+def test_three_axis_column_map_from_yaml(tmp_path):
+    f = _three_axis_csv(tmp_path / "imu.csv")
+    cmap = tmp_path / "map.yaml"
+    cmap.write_text("time: t_ms\ntime_unit: ms\ntemperature: temp\noutput_unit: m/s^2\nx: ax\ny: ay\nz: az\n")
+    [log] = tm.read_imu_logs(f, tm.ColumnMap.from_yaml(cmap))
+    assert len(log) == 400
+
+
+@pytest.mark.parametrize("keys,fragment", [
+    (dict(x="ax", y="ay"), "sets x, y but not z"),
+    (dict(output_cols=["ax", "ay"]), "output_cols lists 2"),
+    (dict(x="ax", y="ay", z="azz"), "no z output column 'azz'; did you mean 'az'?"),
+])
+def test_bad_three_axis_maps_fail_in_one_line(tmp_path, keys, fragment):
+    f = _three_axis_csv(tmp_path / "imu.csv")
+    with pytest.raises(tm.MeasurementError) as exc:
+        tm.read_imu_logs(f, tm.ColumnMap(time="t_ms", temperature="temp", time_unit="ms", output_unit="m/s^2", **keys))
+    assert fragment in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_a_single_axis_file_is_not_an_imu_log(tmp_path):
+    with pytest.raises(tm.MeasurementError, match="single-axis"):
+        tm.read_imu_logs(write_canonical(tmp_path / "c.csv"))
+
+
+@pytest.mark.skipif(not TOFU.is_file(), reason="shared real data not present")
+def test_real_tofupilot_log_reads_as_one_three_axis_imu():
+    [log] = tm.read_imu_logs(TOFU, tm.ColumnMap(**TOFU_MAP, x="imu.acc.x", y="imu.acc.y", z="imu.acc.z"))
+    assert len(log) == 8400 and log.accel_g.shape == (8400, 3)
+    assert 4200 < log.time_s[-1] < 4300  # µs timestamps: about 71 min
+    assert log.temperature_c.min() == pytest.approx(-17.6, abs=0.1)
+    assert log.temperature_c.max() == pytest.approx(74.0, abs=0.1)
+    z = log.accel_g[:, 2]
+    assert -9.8 / G_MS2 < z.min() and z.max() < -9.0 / G_MS2  # m/s² read as g
+    assert 0.06 < np.ptp(z) < 0.09  # the z drift, about 73 mg peak to peak
+    ok, reason = tm.usable_for_calibration(log)
+    assert ok, reason
+
+
+def test_importing_measurements_loads_no_flight_log_library():
+    code = "import sys, twin.measurement; print(sorted(m for m in ('pyulog', 'pymavlink') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT).stdout
+    assert out.strip() == "[]"
