@@ -1,0 +1,229 @@
+"""Heating / cooling / dwell branches of a temperature log, and the validation protocols built on them.
+
+The protocol for thermal compensation is "fit on heating, test on cooling" (and the reverse): the
+two directions differ in the sign of every rate-dependent effect, so a model that only
+interpolates in temperature fails visibly. With only heating there is nothing to test the rate
+dependence on; interleaved blocks are then the fallback, with a note saying so.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from twin.calibration.lag import ThermalLog, as_log, lagged_c, make_X
+from twin.errors import TwinError
+
+
+@dataclass(frozen=True)
+class Branch:
+    """A monotone (or constant) stretch of the temperature log.
+
+    Attributes
+    ----------
+    kind : {"heating", "cooling", "dwell"}
+    start, stop : int
+        Sample indices, ``stop`` exclusive.
+    start_c, stop_c, min_c, max_c : float
+        Temperatures at the ends and extremes [°C].
+    duration_s : float
+    mean_rate_c_per_min : float
+    run : int
+    """
+
+    kind: str
+    start: int
+    stop: int
+    start_c: float
+    stop_c: float
+    min_c: float
+    max_c: float
+    duration_s: float
+    mean_rate_c_per_min: float
+    run: int = 0
+
+    @property
+    def index(self) -> np.ndarray:
+        return np.arange(self.start, self.stop)
+
+    def label(self, k: int) -> str:
+        return f"{self.kind} {k} ({self.start_c:.1f}→{self.stop_c:.1f} °C)"
+
+
+def _zero_phase(log: ThermalLog, tau_s: float) -> np.ndarray:
+    """Forward-backward first-order smoothing (no delay, so turning points stay in place)."""
+    fwd = lagged_c(log, tau_s)
+    back = ThermalLog(log.time_s[-1] - log.time_s[::-1], fwd[::-1], log.run[::-1])
+    return lagged_c(back, tau_s)[::-1]
+
+
+def _pivots(s: np.ndarray, span_c: float) -> list[int]:
+    """Zigzag turning points: an extreme is confirmed once the signal has left it by ``span_c``."""
+    pivots, trend, hi, lo, cand = [0], 0, 0, 0, 0
+    for k in range(1, s.size):
+        if trend == 0:
+            hi, lo = (k if s[k] > s[hi] else hi), (k if s[k] < s[lo] else lo)
+            if s[hi] - s[lo] >= span_c:
+                trend, cand = (1, hi) if hi > lo else (-1, lo)
+        elif (s[k] - s[cand]) * trend > 0:
+            cand = k
+        elif (s[cand] - s[k]) * trend >= span_c:
+            pivots.append(cand)
+            trend, cand = -trend, k
+    return pivots + [s.size - 1]
+
+
+def split_branches(time_s, temperature_c, min_span_c: float = 5.0, smooth_s: float = 60.0,
+                   dwell_rate_c_per_min: float = 0.1, min_dwell_s: float = 600.0, run=None) -> list[Branch]:
+    """Split a log into heating, cooling and dwell branches.
+
+    Parameters
+    ----------
+    time_s, temperature_c : (n,) arrays
+    min_span_c : float
+        A reversal smaller than this [°C] is noise, not a branch (it stays inside its branch).
+    smooth_s : float
+        Time constant [s] of the zero-phase smoothing used to find turning points and dwells.
+    dwell_rate_c_per_min : float
+        Below this |rate| for at least ``min_dwell_s``, a stretch is a dwell.
+    run : (n,) int array, optional
+        Run id per sample; branches never cross runs.
+
+    Returns
+    -------
+    list of Branch, in time order. Turning points sit at the raw extreme nearest the smoothed one;
+        each belongs to the heating branch beside it.
+    """
+    log = as_log(make_X(time_s, temperature_c, run))
+    raw = log.temperature_c
+    smooth = _zero_phase(log, smooth_s / 2)
+    out: list[Branch] = []
+    for seg in log.segments():
+        t, s = log.time_s[seg], smooth[seg]
+        step = max(float(np.median(np.diff(t))), 1e-9)
+        stride = max(int(smooth_s / 4 / step), 1)  # the zigzag loop runs on a decimated copy
+        pick = np.r_[np.arange(0, s.size, stride), s.size - 1]
+        half = max(int(smooth_s / step), 1)
+        edges = []
+        for p in _pivots(s[pick], min_span_c)[1:-1]:
+            k = pick[p]
+            lo, hi = max(k - half, 0), min(k + half + 1, s.size)
+            local = raw[seg][lo:hi]
+            # a turning point belongs to the heating branch beside it (heating spans min → max)
+            if s[k] >= s[max(k - stride, 0)]:
+                edges.append(lo + int(np.argmax(local)) + 1)
+            else:
+                edges.append(lo + int(np.argmin(local)))
+        bounds = np.array([0, *edges, s.size], dtype=int)
+        rate = np.gradient(s, t) * 60.0
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            out += _with_dwells(seg.start, a, b, t, raw[seg], rate, dwell_rate_c_per_min, min_dwell_s,
+                                min_span_c, int(log.run[seg.start]))
+    return out
+
+
+def _with_dwells(offset, a, b, t, raw, rate, dwell_rate, min_dwell_s, min_span_c, run) -> list[Branch]:
+    """The branch [a, b) with its long slow stretches carved out as dwells."""
+    slow = np.r_[0, (np.abs(rate[a:b]) < dwell_rate).astype(np.int8), 0]
+    starts, stops = np.flatnonzero(np.diff(slow) == 1), np.flatnonzero(np.diff(slow) == -1)
+    cuts = [(a + i, a + j) for i, j in zip(starts, stops) if t[a + j - 1] - t[a + i] >= min_dwell_s]
+    pieces, last = [], a
+    for c0, c1 in cuts:
+        pieces += [(last, c0, None), (c0, c1, "dwell")]
+        last = c1
+    pieces.append((last, b, None))
+    out = []
+    for p0, p1, kind in pieces:
+        if p1 - p0 < 2:
+            continue
+        T = raw[p0:p1]
+        if kind is None:
+            kind = "heating" if T[-1] > T[0] else "cooling"
+            if np.ptp(T) < min_span_c:
+                kind = "dwell"  # a remnant beside a dwell, too small to be a branch
+        dur = float(t[p1 - 1] - t[p0])
+        out.append(Branch(kind, int(offset + p0), int(offset + p1), float(T[0]), float(T[-1]), float(T.min()),
+                          float(T.max()), dur, float((T[-1] - T[0]) / max(dur, 1e-9) * 60), run))
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class TestSet:
+    """Held-out samples of one branch (or block) with the share outside the trained range."""
+
+    name: str
+    index: np.ndarray
+    extrapolated: np.ndarray  # bool per sample: temperature outside the training range
+
+    @property
+    def extrapolated_fraction(self) -> float:
+        return float(self.extrapolated.mean()) if self.extrapolated.size else 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class Fold:
+    """Train on ``train`` (indices), test on each of ``tests``."""
+
+    name: str
+    train: np.ndarray
+    tests: tuple[TestSet, ...]
+    note: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class Protocol:
+    """A validation protocol: its folds, the branches it was built from, and caveats."""
+
+    name: str
+    folds: tuple[Fold, ...]
+    branches: tuple[Branch, ...] = field(default=())
+    note: str = ""
+
+
+def _fold(name, temperature_c, train, tests, note="") -> Fold:
+    lo, hi = temperature_c[train].min(), temperature_c[train].max()
+    sets = tuple(TestSet(n, i, (temperature_c[i] < lo) | (temperature_c[i] > hi)) for n, i in tests if i.size)
+    return Fold(name, np.asarray(train), sets, note)
+
+
+def protocol_heating_vs_cooling(time_s, temperature_c, run=None, reverse: bool = True, n_blocks: int = 6,
+                                **split_kwargs) -> Protocol:
+    """Folds "fit on heating, test on each cooling branch" (and the reverse).
+
+    Several runs give leave-one-run-out folds instead (each held-out run tested per branch).
+    A log with only one direction falls back to interleaved contiguous blocks (every other block
+    held out), with a note: such a test cannot see rate-dependent errors. Dwells are in neither set.
+    """
+    T = np.asarray(temperature_c, float)
+    branches = split_branches(time_s, T, run=run, **split_kwargs)
+    labelled = [(b, b.label(k)) for kind in ("heating", "cooling", "dwell")
+                for k, b in enumerate([b for b in branches if b.kind == kind], start=1)]
+    labelled.sort(key=lambda bl: bl[0].start)
+    runs = np.unique(np.asarray(run)) if run is not None else np.zeros(1)
+    if runs.size > 1:
+        r = np.asarray(run)
+        folds = tuple(_fold(f"leave out run {int(u)}", T, np.flatnonzero(r != u),
+                            [(f"run {int(u)} {lab}", b.index) for b, lab in labelled if b.run == u])
+                      for u in runs)
+        return Protocol("leave one run out", folds, tuple(branches))
+    idx = {kind: np.concatenate([b.index for b in branches if b.kind == kind] or [np.zeros(0, int)])
+           for kind in ("heating", "cooling")}
+    if idx["heating"].size and idx["cooling"].size:
+        folds = [_fold("heating→cooling", T, idx["heating"],
+                       [(lab, b.index) for b, lab in labelled if b.kind == "cooling"])]
+        if reverse:
+            folds.append(_fold("cooling→heating", T, idx["cooling"],
+                               [(lab, b.index) for b, lab in labelled if b.kind == "heating"]))
+        return Protocol("fit on heating, test on cooling", tuple(folds), tuple(branches))
+    pool = np.concatenate([idx["heating"], idx["cooling"]]) if (idx["heating"].size + idx["cooling"].size) else \
+        np.arange(T.size)
+    if pool.size < 4 * n_blocks:
+        raise TwinError(f"{pool.size} samples are too few for {2 * n_blocks} interleaved blocks")
+    blocks = np.array_split(pool, 2 * n_blocks)
+    train = np.concatenate(blocks[0::2])
+    note = ("only one thermal direction in the log: interleaved blocks (every other block held out); "
+            "test temperatures lie inside the fitted range, so rate-dependent errors go unseen")
+    fold = _fold("interleaved blocks", T, train, [(f"block {2 * k + 1}", b) for k, b in enumerate(blocks[1::2])],
+                 note)
+    return Protocol("interleaved blocks", (fold,), tuple(branches), note)

@@ -1,0 +1,191 @@
+"""Static temperature compensators (polynomials in the thermometer reading), three axes at once.
+
+scikit-learn conventions: ``__init__`` only stores its arguments, ``fit(X, y, mask=None)``
+returns ``self``, fitted attributes end in ``_``. ``X`` is (n, 2) ``[time_s, temperature_c]`` (or
+(n, 3) with a run id, see :mod:`twin.calibration.lag`), ``y`` is ``accel_g`` (n, 3); ``mask``
+selects the rows fitted on (the others still feed the lag filters of the lag-aware model).
+"""
+
+from __future__ import annotations
+
+import inspect
+from dataclasses import dataclass
+
+import numpy as np
+
+from twin.calibration.lag import as_log, train_mask
+
+AXES = ("x", "y", "z")
+SCALE_C = 10.0  # design columns use (ΔT / 10 °C)^k, so the normal equations stay well conditioned
+
+
+@dataclass(frozen=True, eq=False)
+class LinearFit:
+    """Least squares of one axis: coefficients, standard errors, residual statistics.
+
+    ``stderr`` is inflated by the AR(1) factor √((1 + ρ)/(1 − ρ)) of the residual's lag-1
+    autocorrelation ρ, because residuals of real logs are not white.
+    """
+
+    coef: np.ndarray
+    stderr: np.ndarray
+    cov: np.ndarray
+    sse: float
+    rho: float
+    n: int
+
+
+def ols(F: np.ndarray, y: np.ndarray) -> LinearFit:
+    """Ordinary least squares ``y ≈ F·c`` with AR(1)-inflated standard errors."""
+    coef, *_ = np.linalg.lstsq(F, y, rcond=None)
+    r = y - F @ coef
+    n, p = F.shape
+    sse = float(r @ r)
+    rho = float(np.clip((r[1:] @ r[:-1]) / max(sse, 1e-300), 0.0, 0.95))
+    sigma2 = sse / max(n - p, 1) * (1 + rho) / (1 - rho)
+    cov = sigma2 * np.linalg.pinv(F.T @ F)
+    return LinearFit(coef, np.sqrt(np.diag(cov)), cov, sse, rho, n)
+
+
+def poly_columns(delta_c: np.ndarray, degree: int) -> np.ndarray:
+    """Design columns ``(ΔT / 10 °C)^k``, k = 0…degree."""
+    return np.vander(np.asarray(delta_c, float) / SCALE_C, degree + 1, increasing=True)
+
+
+def to_mg_per_c(coef_scaled_g: np.ndarray) -> np.ndarray:
+    """Coefficients of :func:`poly_columns` [g] → mg/°C^k."""
+    k = np.arange(coef_scaled_g.shape[-1])
+    return coef_scaled_g * 1e3 / SCALE_C**k
+
+
+def poly_text(coef_mg: np.ndarray, variable: str) -> str:
+    """``a0 + a1·(v) + a2·(v)² …`` with values and units [mg]."""
+    sup = {2: "²", 3: "³"}
+    terms = [f"{coef_mg[0]:+.4g} mg"]
+    for k, c in enumerate(coef_mg[1:], start=1):
+        power = sup.get(k, f"^{k}") if k > 1 else ""
+        unit = "mg/°C" + (sup.get(k, f"^{k}") if k > 1 else "")
+        terms.append(f"{c:+.4g} {unit}·({variable}){power}")
+    return " ".join(terms)
+
+
+class CompensatorBase:
+    """Parameter handling and the compensation step shared by all compensators."""
+
+    def get_params(self) -> dict:
+        """Constructor arguments, as stored."""
+        names = [p for p in inspect.signature(type(self).__init__).parameters if p != "self"]
+        return {p: getattr(self, p) for p in names}
+
+    def clone(self):
+        """An unfitted copy with the same parameters."""
+        return type(self)(**self.get_params())
+
+    def compensate(self, X, accel_g: np.ndarray) -> np.ndarray:
+        """``accel_g`` with the modelled thermal drift removed, keeping the level at the reference."""
+        level = self.coef_mg_[:, 0] * 1e-3
+        return np.asarray(accel_g, float) - (self.predict(X) - level)
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
+        return f"{type(self).__name__}({args})"
+
+
+class PolynomialCompensator(CompensatorBase):
+    """Per-axis polynomial in ``T − reference_c``; degree chosen on held-out blocks of the training rows.
+
+    Parameters
+    ----------
+    max_degree : int
+        Highest degree tried (degrees 1…max_degree; fixed when ``degree`` is given).
+    reference_c : float
+        Expansion point [°C].
+    n_blocks : int
+        Contiguous blocks of the training rows for leave-one-block-out selection; contiguous
+        (not interleaved) because neighbouring samples share slow errors.
+    degree : int, optional
+        Fixed degree for all axes (no selection).
+
+    Attributes
+    ----------
+    degree_ : (3,) int array
+    coef_mg_ : (3, max degree + 1) array
+        a_k [mg/°C^k] about ``reference_c`` (zero-padded above an axis' degree).
+    coef_se_mg_ : (3, max degree + 1) array
+        Standard errors of ``coef_mg_``.
+    cv_rms_mg_ : (3, max_degree) array
+        Held-out RMS [mg] per axis and degree (NaN when not selected).
+    """
+
+    def __init__(self, max_degree: int = 7, reference_c: float = 35.0, n_blocks: int = 5,
+                 degree: int | None = None):
+        self.max_degree = max_degree
+        self.reference_c = reference_c
+        self.n_blocks = n_blocks
+        self.degree = degree
+
+    def fit(self, X, y, mask=None):
+        """Fit on the rows of ``mask`` (default: all rows with finite ``y``). Returns self."""
+        log = as_log(X)
+        keep = train_mask(y, log.time_s.size, mask)
+        dT, Y = log.temperature_c[keep] - self.reference_c, np.asarray(y, float)[keep]
+        top = self.degree if self.degree is not None else self.max_degree
+        cv = np.full((3, top), np.nan)
+        if self.degree is None:
+            blocks = np.array_split(np.arange(dT.size), self.n_blocks)
+            for d in range(1, top + 1):
+                F, sse = poly_columns(dT, d), np.zeros(3)
+                for b in blocks:
+                    tr = np.setdiff1d(np.arange(dT.size), b)
+                    c, *_ = np.linalg.lstsq(F[tr], Y[tr], rcond=None)
+                    sse += ((Y[b] - F[b] @ c) ** 2).sum(axis=0)
+                cv[:, d - 1] = np.sqrt(sse / dT.size) * 1e3
+            self.degree_ = np.nanargmin(cv, axis=1) + 1
+        else:
+            self.degree_ = np.full(3, int(self.degree))
+        self._fit_degrees(dT, Y)
+        self.cv_rms_mg_ = cv
+        return self
+
+    def _fit_degrees(self, dT: np.ndarray, Y: np.ndarray) -> None:
+        top = int(self.degree_.max())
+        self.coef_mg_ = np.zeros((3, top + 1))
+        self.coef_se_mg_ = np.zeros((3, top + 1))
+        for i, d in enumerate(self.degree_):
+            fit = ols(poly_columns(dT, d), Y[:, i])
+            self.coef_mg_[i, : d + 1] = to_mg_per_c(fit.coef)
+            self.coef_se_mg_[i, : d + 1] = to_mg_per_c(fit.stderr)
+
+    def predict(self, X) -> np.ndarray:
+        """Modelled reading [g], (n, 3)."""
+        dT = as_log(X).temperature_c - self.reference_c
+        powers = np.vander(dT, self.coef_mg_.shape[1], increasing=True)
+        return powers @ self.coef_mg_.T * 1e-3
+
+    def equation(self) -> str:
+        """The fitted polynomials with values and units, one line per axis."""
+        return "\n".join(
+            f"{ax}: {poly_text(self.coef_mg_[i, : d + 1], f'T − {self.reference_c:g} °C')}"
+            for i, (ax, d) in enumerate(zip(AXES, self.degree_)))
+
+
+class CubicCompensator(PolynomialCompensator):
+    """The PX4 method: a cubic in ``T − reference_c`` per axis (no selection).
+
+    Parameters
+    ----------
+    reference_c : float
+        Expansion point [°C].
+    """
+
+    def __init__(self, reference_c: float = 35.0):
+        self.reference_c = reference_c
+
+    def fit(self, X, y, mask=None):
+        """Fit the three cubics. Returns self."""
+        log = as_log(X)
+        keep = train_mask(y, log.time_s.size, mask)
+        self.degree_ = np.full(3, 3)
+        self.cv_rms_mg_ = np.full((3, 3), np.nan)
+        self._fit_degrees(log.temperature_c[keep] - self.reference_c, np.asarray(y, float)[keep])
+        return self

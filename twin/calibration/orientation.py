@@ -1,0 +1,221 @@
+"""Static orientations (six-position or tumble tests) and per-axis offset(T) and scale factor(T).
+
+A static segment is a stretch of low accelerometer variance; its mean is gravity seen by the
+sensor. Segments are clustered by direction into orientations; axis-aligned ones get a label
+(``+x`` … ``−z``) and a nominal gravity projection of ±1 g or 0 per axis, which is the truth the
+fit ``a = (1 + s(T))·g_true + o(T)`` needs. Gravity is the unit: results are in local g.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import t as student_t
+
+from twin.calibration.models import AXES
+from twin.errors import TwinError
+
+LABELS = tuple(f"{s}{a}" for a in AXES for s in "+-")
+
+
+@dataclass(frozen=True)
+class StaticSegment:
+    """Samples ``start:stop`` held still: their mean [g], spread [mg], temperature and direction."""
+
+    start: int
+    stop: int
+    mean_g: tuple[float, float, float]
+    std_mg: tuple[float, float, float]
+    temperature_c: float
+    duration_s: float
+
+    @property
+    def direction(self) -> np.ndarray:
+        m = np.asarray(self.mean_g)
+        return m / np.linalg.norm(m)
+
+
+@dataclass(frozen=True)
+class Orientation:
+    """A cluster of static segments with one gravity direction.
+
+    ``label`` is ``"+x"`` … ``"-z"`` when within the tolerance of a sensor axis, else ``"tilted"``;
+    ``nominal_g`` is then the signed unit axis, else the measured direction.
+    """
+
+    label: str
+    direction: tuple[float, float, float]
+    nominal_g: tuple[float, float, float]
+    segments: tuple[int, ...]
+    temperatures_c: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class OrientationReport:
+    """Which orientations were found: ``kind`` is "six-position", "tumble" or "partial (k of 6)"."""
+
+    kind: str
+    orientations: tuple[Orientation, ...]
+    found: tuple[str, ...]
+    missing: tuple[str, ...]
+
+
+def detect_static_segments(time_s, accel_g, temperature_c=None, window_s: float = 2.0,
+                           max_std_mg: float | None = None, min_duration_s: float = 10.0,
+                           max_span_c: float = 2.0) -> list[StaticSegment]:
+    """Low-variance stretches of the log.
+
+    Parameters
+    ----------
+    window_s : float
+        Moving window [s] for the standard deviation.
+    max_std_mg : float, optional
+        Static when every axis' moving σ is below this [mg]; default 4 × the median moving σ
+        (most of a calibration log is static, so the median is the noise).
+    min_duration_s : float
+        Shorter still stretches are ignored.
+    max_span_c : float
+        Segments spanning more temperature [°C] are cut, so one mean temperature describes each.
+    """
+    t = np.asarray(time_s, float)
+    a = np.asarray(accel_g, float)
+    T = np.zeros(t.size) if temperature_c is None else np.asarray(temperature_c, float)
+    if a.shape != (t.size, 3) or t.size < 8:
+        raise TwinError(f"accel_g must be (n, 3) with n = {t.size} ≥ 8; got {a.shape}")
+    w = max(int(round(window_s / np.median(np.diff(t)))), 3)
+    c1 = np.vstack([np.zeros(3), np.cumsum(a, axis=0)])
+    c2 = np.vstack([np.zeros(3), np.cumsum(a * a, axis=0)])
+    mean = (c1[w:] - c1[:-w]) / w
+    sd = np.sqrt(np.clip((c2[w:] - c2[:-w]) / w - mean**2, 0, None)).max(axis=1) * 1e3
+    limit = 4 * float(np.median(sd)) if max_std_mg is None else float(max_std_mg)
+    still = np.zeros(t.size, bool)
+    ok = np.flatnonzero(sd < limit)  # window [k, k + w) is still: mark all of it
+    if ok.size:
+        cover = np.zeros(t.size + 1, int)
+        np.add.at(cover, ok, 1)
+        np.add.at(cover, ok + w, -1)
+        still = np.cumsum(cover)[:-1] > 0
+    edge = np.diff(np.r_[0, still.astype(np.int8), 0])
+    out = []
+    for s0, s1 in zip(np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)):
+        s0, s1 = s0 + w // 2, s1 - w // 2  # keep clear of the moves
+        for p0, p1 in _cut_by_temperature(T, s0, s1, max_span_c):
+            if p1 - p0 >= 2 and t[p1 - 1] - t[p0] >= min_duration_s:
+                seg = a[p0:p1]
+                out.append(StaticSegment(int(p0), int(p1), tuple(seg.mean(0)), tuple(seg.std(0) * 1e3),
+                                         float(T[p0:p1].mean()), float(t[p1 - 1] - t[p0])))
+    return out
+
+
+def _cut_by_temperature(T: np.ndarray, s0: int, s1: int, span_c: float) -> list[tuple[int, int]]:
+    pieces, start = [], s0
+    while start < s1:
+        drift = np.abs(T[start:s1] - T[start])
+        end = start + int(np.argmax(drift > span_c)) if np.any(drift > span_c) else s1
+        pieces.append((start, max(end, start + 1)))
+        start = max(end, start + 1)
+    return pieces
+
+
+def cluster_orientations(segments: list[StaticSegment], tol_deg: float = 10.0) -> OrientationReport:
+    """Group segments whose gravity directions lie within ``tol_deg`` and name the orientations."""
+    cos_tol = np.cos(np.radians(tol_deg))
+    groups: list[list[int]] = []
+    for i, s in enumerate(segments):
+        for g in groups:
+            centre = np.mean([segments[j].direction for j in g], axis=0)
+            if s.direction @ centre / np.linalg.norm(centre) >= cos_tol:
+                g.append(i)
+                break
+        else:
+            groups.append([i])
+    found = []
+    for g in groups:
+        d = np.mean([segments[j].direction for j in g], axis=0)
+        d /= np.linalg.norm(d)
+        k = int(np.argmax(np.abs(d)))
+        aligned = abs(d[k]) >= cos_tol
+        nominal = np.eye(3)[k] * np.sign(d[k]) if aligned else d
+        label = f"{'+' if d[k] > 0 else '-'}{AXES[k]}" if aligned else "tilted"
+        found.append(Orientation(label, tuple(d), tuple(nominal), tuple(g),
+                                 tuple(segments[j].temperature_c for j in g)))
+    labels = tuple(o.label for o in found if o.label != "tilted")
+    missing = tuple(lab for lab in LABELS if lab not in labels)
+    if not missing and len(found) == 6:
+        kind = "six-position"
+    elif len(found) > 6 or any(o.label == "tilted" for o in found):
+        kind = "tumble"
+    else:
+        kind = f"partial ({6 - len(missing)} of 6)"
+    return OrientationReport(kind, tuple(found), labels, missing)
+
+
+@dataclass(frozen=True, eq=False)
+class OffsetScaleFit:
+    """Per-axis ``a = (1 + s(T))·g_true + o(T)``, s and o polynomials in ``T − reference_c``.
+
+    Attributes
+    ----------
+    scale_ppm, offset_mg : (3, degree + 1) arrays
+        s_k [ppm/°C^k] and o_k [mg/°C^k]; k = 1 is the tempco (TCSo, TCOff).
+    scale_ci95_ppm, offset_ci95_mg : (3, degree + 1, 2) arrays
+        95 % intervals (Student t on the segment means' residual).
+    residual_rms_mg : (3,) array
+    dof : int
+    notes : tuple of str
+    """
+
+    reference_c: float
+    scale_ppm: np.ndarray
+    scale_se_ppm: np.ndarray
+    scale_ci95_ppm: np.ndarray
+    offset_mg: np.ndarray
+    offset_se_mg: np.ndarray
+    offset_ci95_mg: np.ndarray
+    residual_rms_mg: np.ndarray
+    dof: int
+    notes: tuple[str, ...] = ()
+
+
+def fit_offset_scale(segments: list[StaticSegment], report: OrientationReport, degree: int = 1,
+                     reference_c: float = 25.0) -> OffsetScaleFit:
+    """Least squares per axis over the static segments' means (one row per segment)."""
+    g_true = np.zeros((len(segments), 3))
+    for o in report.orientations:
+        g_true[list(o.segments)] = o.nominal_g
+    y = np.array([s.mean_g for s in segments])
+    dT = np.array([s.temperature_c for s in segments]) - reference_c
+    P = np.vander(dT, degree + 1, increasing=True)
+    n, p = len(segments), 2 * (degree + 1)
+    if n <= p:
+        raise TwinError(f"{n} static segments cannot fix {p} coefficients per axis; add orientations or temperatures")
+    shape = (3, degree + 1)
+    est, se = np.full((2,) + shape, np.nan), np.full((2,) + shape, np.nan)
+    rms, notes = np.zeros(3), []
+    q = student_t.ppf(0.975, n - p)
+    for a in range(3):
+        F = np.column_stack([P * g_true[:, a:a + 1], P])
+        if np.ptp(g_true[:, a]) < 0.5:
+            notes.append(f"{AXES[a]}: gravity never changes along this axis, scale factor not identifiable")
+            F = P
+        coef, *_ = np.linalg.lstsq(F, y[:, a] - g_true[:, a], rcond=None)
+        r = y[:, a] - g_true[:, a] - F @ coef
+        cov = (r @ r) / (n - F.shape[1]) * np.linalg.pinv(F.T @ F)
+        c, s = coef.reshape(-1, degree + 1), np.sqrt(np.diag(cov)).reshape(-1, degree + 1)
+        est[2 - c.shape[0]:, a], se[2 - c.shape[0]:, a] = c, s
+        rms[a] = np.sqrt(np.mean(r * r)) * 1e3
+    units = np.array([1e6, 1e3])[:, None, None]
+    est, se = est * units, se * units
+    ci = est[..., None] + q * se[..., None] * np.array([-1.0, 1.0])
+    return OffsetScaleFit(reference_c, est[0], se[0], ci[0], est[1], se[1], ci[1], rms, n - p, tuple(notes))
+
+
+def six_position(time_s, accel_g, temperature_c, degree: int = 1, reference_c: float = 25.0,
+                 tol_deg: float = 10.0, **detect) -> tuple[OrientationReport, OffsetScaleFit]:
+    """Detect, cluster and fit in one call (``detect``: keywords of :func:`detect_static_segments`)."""
+    segments = detect_static_segments(time_s, accel_g, temperature_c, **detect)
+    if not segments:
+        raise TwinError("no static segment found: lower window_s/min_duration_s or raise max_std_mg")
+    report = cluster_orientations(segments, tol_deg)
+    return report, fit_offset_scale(segments, report, degree, reference_c)

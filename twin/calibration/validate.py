@@ -1,0 +1,147 @@
+"""Held-out validation of temperature compensators under a branch protocol.
+
+Every estimator is cloned and fitted on each fold's training rows only; its residual is scored on
+each held-out branch. The noise floor — white-noise σ from first differences of the residual,
+divided by √2 — says how far any compensation could still go.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from twin.calibration.branches import Protocol
+from twin.calibration.lag import make_X
+from twin.calibration.models import AXES
+from twin.errors import TwinError
+
+
+@dataclass(frozen=True)
+class Score:
+    """Held-out RMS of one method on one test set (``test == "overall"``: the fold's tests pooled)."""
+
+    fold: str
+    method: str
+    test: str
+    rms_mg: tuple[float, float, float]
+    n: int
+    extrapolated_fraction: float
+
+
+@dataclass(frozen=True)
+class ValidationResult:
+    """Scores per fold, method and test branch, the noise floor and the best method per axis.
+
+    Attributes
+    ----------
+    scores : tuple of Score
+    noise_floor_mg : (float, float, float)
+        White-noise σ per axis [mg], median over folds and methods.
+    best_method : (str, str, str)
+        Lowest RMS over all folds' held-out samples pooled, per axis.
+    fit_time_s : dict
+        ``{(fold, method): seconds}`` for one fit.
+    notes : tuple of str
+    """
+
+    scores: tuple[Score, ...]
+    noise_floor_mg: tuple[float, float, float]
+    best_method: tuple[str, str, str]
+    fit_time_s: dict
+    notes: tuple[str, ...] = ()
+
+    @property
+    def methods(self) -> list[str]:
+        return list(dict.fromkeys(s.method for s in self.scores))
+
+    def rms_mg(self, method: str, test: str = "overall", fold: str | None = None) -> np.ndarray:
+        """RMS [mg] per axis of ``method`` on ``test`` (pooled over folds unless ``fold`` is given)."""
+        hits = [s for s in self.scores if s.method == method and s.test == test and fold in (None, s.fold)]
+        if not hits:
+            raise TwinError(f"no score for method {method!r}, test {test!r}, fold {fold!r}")
+        sse = sum(np.square(s.rms_mg) * s.n for s in hits)
+        return np.sqrt(sse / sum(s.n for s in hits))
+
+    def table(self, reference: str | None = None) -> str:
+        """Text table: RMS [mg] per axis, per method, per test set; ``reference`` adds % below it."""
+        lines = []
+        for fold in dict.fromkeys(s.fold for s in self.scores):
+            tests = list(dict.fromkeys(s.test for s in self.scores if s.fold == fold))
+            lines.append(f"{fold}: held-out RMS [mg] x / y / z")
+            for test in tests:
+                lines.append(f"  {test}")
+                ref = self.rms_mg(reference, test, fold) if reference else None
+                for m in self.methods:
+                    r = self.rms_mg(m, test, fold)
+                    text = " / ".join(f"{v:6.2f}" for v in r)
+                    if ref is not None and m != reference:
+                        text += "   (" + " / ".join(f"{100 * (1 - v / w):+4.0f} %" for v, w in zip(r, ref)) + \
+                                f" vs {reference})"
+                    lines.append(f"    {m:22s} {text}")
+        lines.append("noise floor [mg]: " + " / ".join(f"{v:.2f}" for v in self.noise_floor_mg))
+        lines.append("best method: " + ", ".join(f"{a}: {m}" for a, m in zip(AXES, self.best_method)))
+        return "\n".join(lines + list(self.notes))
+
+
+def noise_floor_mg(residual_g: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """σ [mg] per axis from first differences of consecutive held-out samples, / √2."""
+    index = np.asarray(index)
+    pairs = np.flatnonzero(np.diff(index) == 1)
+    d = residual_g[index[pairs + 1]] - residual_g[index[pairs]]
+    return np.std(d, axis=0) / np.sqrt(2) * 1e3 if pairs.size > 2 else np.full(3, np.nan)
+
+
+def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, run=None) -> ValidationResult:
+    """Fit each estimator on each fold's training rows and score it on the held-out branches.
+
+    Parameters
+    ----------
+    models : dict of name → estimator
+        Unfitted estimators with ``clone``, ``fit(X, y, mask)`` and ``predict(X)``.
+    time_s, temperature_c : (n,) arrays
+    accel_g : (n, 3) array
+    protocol : Protocol
+        From :func:`twin.calibration.branches.protocol_heating_vs_cooling`.
+    run : (n,) int array, optional
+        Run id per sample (the lags restart at each run).
+
+    Returns
+    -------
+    ValidationResult
+    """
+    X = make_X(time_s, temperature_c, run)
+    y = np.asarray(accel_g, float)
+    if y.shape != (X.shape[0], 3):
+        raise TwinError(f"accel_g must be (n, 3) with n = {X.shape[0]}; got {y.shape}")
+    scores, floors, times = [], [], {}
+    for fold in protocol.folds:
+        mask = np.zeros(X.shape[0], bool)
+        mask[fold.train] = True
+        held = np.concatenate([t.index for t in fold.tests]) if fold.tests else np.zeros(0, int)
+        extrap = np.concatenate([t.extrapolated for t in fold.tests]) if fold.tests else np.zeros(0, bool)
+        for name, est in models.items():
+            start = time.perf_counter()
+            fitted = est.clone().fit(X, y, mask=mask)
+            times[(fold.name, name)] = time.perf_counter() - start
+            resid = y - fitted.predict(X)
+            for t in fold.tests:
+                scores.append(Score(fold.name, name, t.name, _rms(resid[t.index]), int(t.index.size),
+                                    t.extrapolated_fraction))
+            if held.size:
+                scores.append(Score(fold.name, name, "overall", _rms(resid[held]), int(held.size),
+                                    float(extrap.mean())))
+                floors.append(np.concatenate([noise_floor_mg(resid, t.index) for t in fold.tests]).reshape(-1, 3))
+    if not scores:
+        raise TwinError(f"protocol {protocol.name!r} has no held-out samples")
+    floor = np.nanmedian(np.concatenate(floors), axis=0)
+    dummy = ValidationResult(tuple(scores), tuple(floor), ("",) * 3, times)
+    pooled = np.array([dummy.rms_mg(m) for m in dummy.methods])
+    best = tuple(dummy.methods[i] for i in np.argmin(pooled, axis=0))
+    notes = tuple(f"note ({f.name}): {f.note}" for f in protocol.folds if f.note)
+    return ValidationResult(tuple(scores), tuple(float(v) for v in floor), best, times, notes)
+
+
+def _rms(r: np.ndarray) -> tuple[float, float, float]:
+    return tuple(float(v) for v in np.sqrt(np.mean(r * r, axis=0)) * 1e3)
