@@ -66,7 +66,9 @@ def main() -> None:
         from statsmodels.regression.linear_model import GLSAR
 
         from twin.diagnosis.compare import twin_model
-        from twin.diagnosis.diagnose import DiagnosisConfig, Problem, _screen_columns, calibrate, candidate_names, screen
+        from twin.diagnosis.calibrate import calibrate
+        from twin.diagnosis.problem import DiagnosisConfig, Problem
+        from twin.diagnosis.screen import candidate_names, screen, screen_columns
         from twin.effects import get_effect
         from twin.measurement import load_measurements
 
@@ -81,7 +83,7 @@ def main() -> None:
         n_fits = sum(len(get_effect(n).grid()) for n in names)
         J = p.avg(cal.X_full)
         y = p.avg(p.y - cal.fixed_full)
-        X, _ = _screen_columns(p, cal, get_effect("warmup"), {"tau_s": 100.0})
+        X, _ = screen_columns(p, cal, get_effect("warmup"), {"tau_s": 100.0})
         A = np.column_stack([J, p.avg(X)])
         t0 = time.perf_counter()
         k = 5

@@ -1,13 +1,16 @@
-"""ST IIS328DQ output model: full scale, 12-bit left-justified output, noise, quantisation.
+"""Output model of a digital MEMS accelerometer axis: noise, bias instability, quantisation,
+saturation, the left-justified output register, and the logger.
 
-Values and their provenance (physics-notes §1.1, ``physics_reference.json``):
+This module holds the physics only. Every datasheet figure (sensitivity per full scale,
+resolution, low-pass cut-off per ODR, noise density, bias instability) arrives as data in an
+:class:`AccelerometerConfig`, which the scenario builds from a part file (``twin/parts/``, one
+YAML file per part with the value, unit, source and verification of each figure) and the
+scenario's own choices and overrides.
 
-* full scale ±2/±4/±8 g at 0.98/1.95/3.91 mg/digit, 12-bit data left-justified in a 16-bit
-  register (raw >> 4 = digits) — verified from ST's driver;
-* ODR 50/100/400/1000 Hz with digital low-pass 37/74/292/780 Hz — verified (same family);
-* noise density 218 µg/√Hz — **recalled, unverified** (LIS331DLH family); overridable;
-* TCOff ±0.8 mg/°C — the paper's figure, unverified; TCSo ±0.01 %/°C — **recalled**;
-* bias instability (Gauss–Markov σ and τ) — **typical values, not from the datasheet**.
+Modelling choices (physics-notes §1.1): the white noise per ODR sample is the noise density over
+the digital low-pass cut-off as the bandwidth (datasheets state no noise bandwidth); the bias
+instability is a first-order Gauss–Markov process; the output is rounded to whole digits and
+saturates at the two's-complement limits of the resolution.
 """
 
 from __future__ import annotations
@@ -17,47 +20,54 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import lfilter
 
-SENSITIVITY_MG_PER_DIGIT = {2: 0.98, 4: 1.95, 8: 3.91}
-LOWPASS_HZ_AT_ODR = {50: 37.0, 100: 74.0, 400: 292.0, 1000: 780.0}
-RESOLUTION_BITS = 12
+REGISTER_BITS = 16  # the output register the data are left-justified in
 
 
-@dataclass(frozen=True)
-class IIS328DQ:
-    """Configuration of one IIS328DQ axis.
+@dataclass(frozen=True, kw_only=True)
+class AccelerometerConfig:
+    """One accelerometer axis at one full scale and output data rate: the figures the output
+    model needs, taken from a part file and the scenario (no defaults here: see ``twin/parts/``).
 
     Parameters
     ----------
-    full_scale_g : {2, 4, 8}
-    odr_hz : {50, 100, 400, 1000}
-        Output data rate in normal mode; sets the digital low-pass cut-off.
+    sensitivity_mg_per_digit : float
+        One digit of the output [mg] at the chosen full scale.
+    resolution_bits : int
+        Bits of output data (left-justified in a 16-bit register); sets the saturation limits.
+    odr_hz : float
+        Output data rate [Hz].
+    lowpass_hz : float
+        Digital low-pass cut-off at that ODR [Hz]; taken as the white-noise bandwidth.
     noise_density_ug_per_sqrt_hz : float
-        White-noise density [µg/√Hz] (recalled family value, unverified).
+        White-noise density [µg/√Hz].
     bias_instability_mg : float
-        Stationary σ of a first-order Gauss–Markov bias [mg] (typical, not from the datasheet).
+        Stationary σ of a first-order Gauss–Markov bias [mg].
     bias_instability_tau_s : float
         Its correlation time [s].
+    full_scale_g : float
+        Nominal full scale [±g] (the saturation follows from the resolution and sensitivity).
     """
 
-    full_scale_g: int = 2
-    odr_hz: int = 50
-    noise_density_ug_per_sqrt_hz: float = 218.0
-    bias_instability_mg: float = 0.05
-    bias_instability_tau_s: float = 300.0
+    sensitivity_mg_per_digit: float
+    resolution_bits: int
+    odr_hz: float
+    lowpass_hz: float
+    noise_density_ug_per_sqrt_hz: float
+    bias_instability_mg: float
+    bias_instability_tau_s: float
+    full_scale_g: float
 
     def __post_init__(self) -> None:
-        if self.full_scale_g not in SENSITIVITY_MG_PER_DIGIT:
-            raise ValueError(f"full_scale_g must be one of {sorted(SENSITIVITY_MG_PER_DIGIT)}, got {self.full_scale_g}")
-        if self.odr_hz not in LOWPASS_HZ_AT_ODR:
-            raise ValueError(f"odr_hz must be one of {sorted(LOWPASS_HZ_AT_ODR)}, got {self.odr_hz}")
-
-    @property
-    def sensitivity_mg_per_digit(self) -> float:
-        return SENSITIVITY_MG_PER_DIGIT[self.full_scale_g]
-
-    @property
-    def lowpass_hz(self) -> float:
-        return LOWPASS_HZ_AT_ODR[self.odr_hz]
+        positive = ("sensitivity_mg_per_digit", "odr_hz", "lowpass_hz", "bias_instability_tau_s", "full_scale_g")
+        for name in positive:
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        for name in ("noise_density_ug_per_sqrt_hz", "bias_instability_mg"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if int(self.resolution_bits) != self.resolution_bits or not 2 <= self.resolution_bits <= REGISTER_BITS:
+            raise ValueError(f"resolution_bits must be a whole number of bits in 2..{REGISTER_BITS}, "
+                             f"got {self.resolution_bits}")
 
     @property
     def white_sigma_g(self) -> float:
@@ -66,19 +76,18 @@ class IIS328DQ:
 
 
 def white_noise_sigma_g(noise_density_ug_per_sqrt_hz: float, bandwidth_hz: float) -> float:
-    """σ [g] of white noise of one-sided density ``nd`` [µg/√Hz] in ``bandwidth_hz``: nd·√B.
-
-    218 µg/√Hz × √37 Hz = 1.326 mg (physics-notes §1.1; the issue's ≈ 1.33 mg).
-    """
+    """σ [g] of white noise of one-sided density ``nd`` [µg/√Hz] in ``bandwidth_hz``: nd·√B
+    (physics-notes §1.1: the bandwidth is the low-pass cut-off, a modelling choice)."""
     return noise_density_ug_per_sqrt_hz * 1e-6 * np.sqrt(bandwidth_hz)
 
 
-def logger_white_sigma_g(sensor: IIS328DQ, logger_rate_hz: float, mode: str = "latest") -> float:
+def logger_white_sigma_g(sensor: AccelerometerConfig, logger_rate_hz: float, mode: str = "latest") -> float:
     """σ [g] of the white noise in one logged sample.
 
     ``latest`` keeps the newest ODR sample (σ of one sample); ``average`` averages the
-    ``ODR / logger_rate`` samples of each logger interval (σ/√k; ODR samples are independent
-    because the 37 Hz low-pass lies above the 25 Hz Nyquist frequency of a 50 Hz ODR).
+    ``ODR / logger_rate`` samples of each logger interval (σ/√k; taken as independent, which
+    holds while the low-pass cut-off lies above the ODR's Nyquist frequency, as the ODR tables
+    of the parts shipped do).
     """
     if logger_rate_hz > sensor.odr_hz:
         raise ValueError(f"logger rate {logger_rate_hz} Hz exceeds the ODR {sensor.odr_hz} Hz")
@@ -103,15 +112,16 @@ def gauss_markov(n: int, dt_s: float, sigma: float, tau_s: float, rng: np.random
     return lfilter([sigma * np.sqrt(1 - phi**2)], [1.0, -phi], w)
 
 
-def quantise_digits(a_g: np.ndarray, sensitivity_mg_per_digit: float, bits: int = RESOLUTION_BITS) -> np.ndarray:
-    """Round to the nearest digit and saturate at the 12-bit two's-complement limits."""
+def quantise_digits(a_g: np.ndarray, sensitivity_mg_per_digit: float, bits: int) -> np.ndarray:
+    """Round to the nearest digit and saturate at the ``bits``-bit two's-complement limits."""
     lim = 2 ** (bits - 1)
     return np.clip(np.rint(np.asarray(a_g) * 1e3 / sensitivity_mg_per_digit), -lim, lim - 1).astype(np.int16)
 
 
-def left_justified_register(digits: np.ndarray, bits: int = RESOLUTION_BITS) -> np.ndarray:
-    """The 16-bit OUT register: 12-bit data shifted left by 4 (driver: ``(raw >> 4) * 0.98``)."""
-    return (np.asarray(digits, np.int16).astype(np.int32) << (16 - bits)).astype(np.int16)
+def left_justified_register(digits: np.ndarray, bits: int) -> np.ndarray:
+    """The 16-bit output register: ``bits``-bit data shifted left by ``16 − bits`` (drivers
+    convert with ``(raw >> (16 − bits)) × sensitivity``)."""
+    return (np.asarray(digits, np.int16).astype(np.int32) << (REGISTER_BITS - bits)).astype(np.int16)
 
 
 @dataclass
@@ -132,7 +142,7 @@ class SensorOutput:
 
 def sensor_output(
     true_g: np.ndarray,
-    sensor: IIS328DQ,
+    sensor: AccelerometerConfig,
     logger_rate_hz: float,
     rng_white: np.random.Generator,
     rng_bias: np.random.Generator,
@@ -149,8 +159,8 @@ def sensor_output(
     white = rng_white.normal(0.0, logger_white_sigma_g(sensor, logger_rate_hz, logger_mode), n)
     bi = gauss_markov(n, 1.0 / logger_rate_hz, sensor.bias_instability_mg * 1e-3, sensor.bias_instability_tau_s, rng_bias)
     analog = true_g + white + bi
-    digits = quantise_digits(analog, sensor.sensitivity_mg_per_digit)
-    lim = 2 ** (RESOLUTION_BITS - 1)
+    digits = quantise_digits(analog, sensor.sensitivity_mg_per_digit, sensor.resolution_bits)
+    lim = 2 ** (sensor.resolution_bits - 1)
     saturated = (digits <= -lim) | (digits >= lim - 1)
     return SensorOutput(white, bi, analog, digits, digits * sensor.sensitivity_mg_per_digit * 1e-3, saturated)
 

@@ -34,6 +34,16 @@ BAD = [
     (GOOD + "chamber:\n  model: conduction_1d\n  conduction_1d: {die_layer: chip}\n",
      ["die_layer 'chip' is not a layer name"]),
     (GOOD + "device:\n  sensor: {full_scale_g: 3}\n", ["device.sensor.full_scale_g", "2, 4 or 8"]),
+    (GOOD + "device:\n  sensor:\n    odr_hz: 60\n", ["<t>:6", "device.sensor.odr_hz 60 is not a setting of part 'IIS328DQ'",
+                                                    "50, 100, 400 or 1000"]),
+    (GOOD + "device:\n  sensor: {part: IIS328DX}\n", ["<t>:5", "device.sensor.part: unknown part 'IIS328DX'",
+                                                      "did you mean 'IIS328DQ'"]),
+    (GOOD + "device:\n  sensor: {model: IIS328DX}\n", ["device.sensor.model: unknown part 'IIS328DX'"]),
+    (GOOD + "device:\n  sensor: {model: IIS328DQ, part: generic}\n", ["model 'IIS328DQ' and part 'generic' disagree"]),
+    (GOOD + "device:\n  sensor: {part: generic, full_scale_g: 2, odr_hz: 50}\n",
+     ["<t>:5", "device.sensor: part 'generic' has no sensitivity_mg_per_digit, resolution_bits"]),
+    (GOOD + "device:\n  sensor: {part: missing.yaml}\n", ["device.sensor.part", "missing.yaml: part file not found"]),
+    (GOOD + "device:\n  sensor: {resolution_bits: 20}\n", ["device.sensor.resolution_bits", "less than or equal to 16"]),
     (GOOD + "device:\n  effects:\n    static_bias_t: {}\n", ["<t>:6", "unknown effect 'static_bias_t'", "static_bias_tc"]),
     (GOOD + "device:\n  effects:\n    static_bias_tc: {tc1_mg_per_c: 99}\n", ["outside its bounds"]),
     (GOOD + "device:\n  effects:\n    static_bias_tc: {tc1_mg_per_cc: 1}\n", ["no parameter 'tc1_mg_per_cc'", "did you mean"]),
@@ -121,6 +131,71 @@ def test_every_scenario_key_is_documented():
     for step in (HoldStep, RampStep, StaircaseStep):
         missing += [k for k in step.model_fields if f"`{k}`" not in doc]
     assert not missing, missing
+
+
+# Each scenario section that mirrors a sim dataclass, and that dataclass: one source of defaults.
+def _default_pairs():
+    from sim import program, thermal
+    from sim.microstructure import CombGeometry
+    from twin.model import sections as sec
+
+    return [(sec.ThermometerSection, thermal.Thermometer), (sec.LumpedSection, thermal.LumpedChain),
+            (sec.LayerSection, thermal.Layer), (sec.Conduction1DSection, thermal.ConductionStack),
+            (sec.GeometrySection, CombGeometry), (sec.HoldStep, program.Hold)]
+
+
+@pytest.mark.parametrize("pair", range(6), ids=["thermometer", "lumped", "layer", "conduction", "geometry", "hold"])
+def test_section_defaults_agree_with_their_sim_dataclass(pair):
+    import dataclasses
+
+    section, cls = _default_pairs()[pair]
+    shared = [f for f in dataclasses.fields(cls) if f.name in section.model_fields]
+    assert shared
+    for f in shared:
+        if f.default is dataclasses.MISSING:  # required in the dataclass: required (or scenario-only) in the section
+            continue
+        assert section.model_fields[f.name].default == f.default, f"{section.__name__}.{f.name}"
+        assert type(section.model_fields[f.name].default) is type(f.default), f"{section.__name__}.{f.name}"
+
+
+def test_sensor_defaults_are_the_part_figures_only():
+    """The sensor section writes no figure of its own: every default is None (= the part's), and the
+    default scenario resolves to the default part's figures at its lowest full scale and ODR."""
+    import dataclasses
+
+    from sim.sensor import AccelerometerConfig
+    from twin.model.sections import SensorSection
+    from twin.parts import DEFAULT_PART, PARTS
+
+    for f in dataclasses.fields(AccelerometerConfig):
+        assert f.default is dataclasses.MISSING and SensorSection.model_fields[f.name].default is None, f.name
+    part = PARTS[DEFAULT_PART]
+    s = parse_scenario(GOOD).sensor()
+    assert s.full_scale_g == min(part.value("sensitivity_mg_per_digit")) and s.odr_hz == min(part.value("lowpass_hz"))
+    assert s.sensitivity_mg_per_digit == part.value("sensitivity_mg_per_digit")[s.full_scale_g]
+    for name in ("noise_density_ug_per_sqrt_hz", "bias_instability_mg", "bias_instability_tau_s", "resolution_bits"):
+        assert getattr(s, name) == part.value(name), name
+
+
+def test_builders_pass_keywords():
+    """The builders call the sim dataclasses with keywords only: a field added in the middle of a
+    dataclass must not shift what they pass."""
+    import ast
+    import inspect
+    import textwrap
+
+    from twin.model.scenario import LoadedScenario
+
+    built = {"AccelerometerConfig", "Thermometer", "LumpedChain", "Layer", "ConductionStack", "CombGeometry"}
+    seen = set()
+    for name in ("sensor", "thermometer", "thermal_device", "geometry"):
+        tree = ast.parse(textwrap.dedent(inspect.getsource(getattr(LoadedScenario, name))))
+        for call in (n for n in ast.walk(tree) if isinstance(n, ast.Call)):
+            callee = call.func.attr if isinstance(call.func, ast.Attribute) else getattr(call.func, "id", "")
+            if callee in built:
+                seen.add(callee)
+                assert not call.args, f"LoadedScenario.{name} passes {callee} arguments by position"
+    assert seen == built
 
 
 def test_dataset_layout_is_documented():

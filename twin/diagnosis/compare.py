@@ -7,7 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from sim.sensor import logger_white_sigma_g
-from twin.diagnosis.diagnose import DiagnosisConfig, Problem, diagnose, result_json
+from twin.diagnosis.contract import result_json
+from twin.diagnosis.diagnose import diagnose
+from twin.diagnosis.problem import DiagnosisConfig, Problem
 from twin.effects import Composition, get_effect
 from twin.errors import ModelError, TwinError
 from twin.measurement import ColumnMap, Measurement, load_measurements
@@ -45,7 +47,7 @@ def twin_model(loaded: LoadedScenario, with_effects: list[str]) -> Composition:
 
 def compare_measurement(loaded: LoadedScenario, m: Measurement, with_effects: list[str], average_s: float = 10.0):
     cfg = DiagnosisConfig(average_s=average_s)
-    problem = Problem(m, cfg, loaded.sensor())
+    problem = Problem(m, cfg)
     d = diagnose(problem, twin_model(loaded, with_effects), sensor_noise_floor_g(loaded, m.sample_rate_hz))
     result = result_json(d)
     result["measurement"] = {"files": m.sources, "bad_rows_skipped": m.bad_rows_skipped, "notes": m.notes,

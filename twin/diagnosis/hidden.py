@@ -52,11 +52,12 @@ def detectable_ratio(m: Measurement, twin: LoadedScenario, hidden_g: np.ndarray,
                      average_s: float = 10.0) -> float:
     """RMS of the hidden term after projecting out what the twin absorbs (offsets, its free
     amplitudes), over the σ of the noise, both on ``average_s`` means."""
-    from twin.diagnosis.diagnose import DiagnosisConfig, Problem, _design, _orthonormal
+    from twin.diagnosis.linalg import orthonormal_basis
+    from twin.diagnosis.problem import DiagnosisConfig, Problem, design_matrix
 
     p = Problem(m, DiagnosisConfig(average_s=average_s))
-    X, _, _, _ = _design(p, twin.twin_composition())
-    Q = _orthonormal(p.avg(np.column_stack([p.nuisance, X])))
+    X, _, _, _ = design_matrix(p, twin.twin_composition())
+    Q = orthonormal_basis(p.avg(np.column_stack([p.nuisance, X])))
     h = p.avg(hidden_g)
     h = h - Q @ (Q.T @ h)
     return float(np.sqrt(np.mean(h * h)) / np.std(p.avg(noise_g)))

@@ -1,4 +1,4 @@
-"""Scenario → dataset: program → thermal chain → device effects → IIS328DQ output.
+"""Scenario → dataset: program → thermal chain → device effects → sensor output (the scenario's part).
 
 Every random draw comes from the scenario's seed through independent streams (white noise,
 bias instability, thermometer), so the same seed gives identical arrays and another seed
@@ -121,7 +121,7 @@ def simulate(
         "layout_version": LAYOUT_VERSION,
         "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "sample_rate_hz": tp.logger_rate_hz,
-        "sensor": "IIS328DQ",
+        "sensor": loaded.part.name if loaded.part is not None else scn.device.sensor.part_spec,
         "full_scale_g": sensor.full_scale_g,
         "sensitivity_mg_per_digit": sensor.sensitivity_mg_per_digit,
         "white_noise_sigma_g": logger_white_sigma_g(sensor, tp.logger_rate_hz, tp.logger_mode),

@@ -1,0 +1,210 @@
+"""Calibrate the twin's effects to the measurement (diagnosis-methods §1 step 2).
+
+Bounded linear least squares for amplitudes, profile search and bounded refinement for nonlinear
+parameters, 95 % intervals from the prewhitened (GLS) fit and the profile likelihood; amplitudes
+the others reproduce exactly are held at their current values and named with their partner.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from twin.effects import Composition, EffectInputs
+from twin.diagnosis.linalg import closest_column, fit_bounded_linear, novelty, orthonormal_basis
+from twin.diagnosis.noise import ARModel, fit_ar
+from twin.diagnosis.problem import DiagnosisConfig, Problem, amplitude_bounds, design_matrix
+
+
+@dataclass
+class Calibration:
+    composition: Composition
+    names: list[tuple[str, str]]  # free amplitudes, in column order after the nuisance
+    beta: np.ndarray  # nuisance then amplitudes
+    cov: np.ndarray
+    ar: ARModel
+    X_full: np.ndarray  # nuisance + amplitude columns, full rate
+    fixed_full: np.ndarray
+    inputs: EffectInputs
+    residual: np.ndarray  # full rate
+    residual_avg: np.ndarray
+    nonlinear_ci: dict[tuple[str, str], tuple[float, float]] = field(default_factory=dict)
+    pinned: list[tuple[tuple[str, str], str]] = field(default_factory=list)  # (effect, amplitude), partner
+    temperature_derivative: np.ndarray | None = None  # cache: ∂(drift)/∂(die temperature)
+
+    @property
+    def prediction_minus_applied(self) -> np.ndarray:
+        return self.X_full @ self.beta + self.fixed_full
+
+
+def _rss_for(problem: Problem, comp: Composition, pinned: frozenset = frozenset()) -> float:
+    X, names, fixed, _ = design_matrix(problem, comp, pinned)
+    A = problem.avg(np.column_stack([problem.nuisance, X]))
+    b = problem.avg(problem.y - fixed)
+    lo, hi = amplitude_bounds(names, problem.nuisance.shape[1])
+    beta = fit_bounded_linear(A, b, lo, hi)
+    r = b - A @ beta
+    return float(r @ r)
+
+
+def _nonlinear_slots(comp: Composition) -> list[tuple[int, str]]:
+    out = []
+    for i, e in enumerate(comp.effects):
+        for p in e.parameters:
+            if p.role == "nonlinear" and p.free and len(p.grid) > 1:
+                out.append((i, p.name))
+    return out
+
+
+def _with(comp: Composition, i: int, name: str, value: float) -> Composition:
+    effects = list(comp.effects)
+    effects[i] = effects[i].with_values(**{name: value})
+    return Composition(effects)
+
+
+def exact_aliases(problem: Problem, comp: Composition) -> list[tuple[tuple[str, str], str]]:
+    """Free amplitudes whose column the others (and the offsets) reproduce exactly; each is
+    pinned at its current value, later effects first, and named with its partner.
+
+    Parameters
+    ----------
+    problem : Problem
+    comp : Composition
+
+    Returns
+    -------
+    list of ((effect, amplitude), partner label)
+    """
+    X, names, _, _ = design_matrix(problem, comp)
+    A = problem.avg(np.column_stack([problem.nuisance, X]))
+    labels = problem.nuisance_names + [f"{e}.{a}" for e, a in names]
+    nn = problem.nuisance.shape[1]
+    keep = list(range(A.shape[1]))
+    out = []
+    for j in range(A.shape[1] - 1, nn - 1, -1):
+        others = [k for k in keep if k != j]
+        if novelty(A[:, [j]], orthonormal_basis(A[:, others])) < 1e-6:
+            out.append((names[j - nn], closest_column(A, j, others, labels)))
+            keep.remove(j)
+    return out
+
+
+def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | None = None) -> Calibration:
+    """Fit the model's free parameters to the measurement (see the module docstring).
+
+    Parameters
+    ----------
+    problem : Problem
+        The prepared measurement.
+    comp : Composition
+        The model; its values start the nonlinear search.
+    config : DiagnosisConfig, optional
+        Defaults to ``problem.config``.
+
+    Returns
+    -------
+    Calibration
+    """
+    config = config or problem.config
+    aliases = exact_aliases(problem, comp)
+    pinned = frozenset(name for name, _ in aliases)
+    slots = _nonlinear_slots(comp)
+    for _ in range(2 if len(slots) > 1 else 1):
+        for i, pname in slots:
+            param = next(p for p in comp.effects[i].parameters if p.name == pname)
+            grid = sorted(set(param.grid) | {comp.effects[i].values[pname]})
+            rss = [_rss_for(problem, _with(comp, i, pname, v), pinned) for v in grid]
+            k = int(np.argmin(rss))
+            lo = grid[max(k - 1, 0)]
+            hi = grid[min(k + 1, len(grid) - 1)]
+            lo, hi = max(lo, param.bounds[0]), min(hi, param.bounds[1])
+            best = grid[k]
+            if hi > lo:
+                res = minimize_scalar(lambda lv: _rss_for(problem, _with(comp, i, pname, float(np.exp(lv))), pinned),
+                                      bounds=(np.log(max(lo, 1e-9)), np.log(hi)), method="bounded",
+                                      options={"xatol": 1e-3})
+                if res.fun <= rss[k]:
+                    best = float(np.exp(res.x))
+            comp = _with(comp, i, pname, best)
+    X, names, fixed, inputs = design_matrix(problem, comp, pinned)
+    X_full = np.column_stack([problem.nuisance, X])
+    A = problem.avg(X_full)
+    b = problem.avg(problem.y - fixed)
+    lo, hi = amplitude_bounds(names, problem.nuisance.shape[1])
+    beta = fit_bounded_linear(A, b, lo, hi)
+    r_avg = b - A @ beta
+    ar = fit_ar(r_avg, problem.run_avg, config.max_ar_order)
+    Aw = ar.prewhiten(A, problem.run_avg)
+    rw = ar.prewhiten(r_avg, problem.run_avg)
+    dof = max(1, A.shape[0] - A.shape[1])
+    s2 = float(rw @ rw) / dof
+    cov = s2 * np.linalg.pinv(Aw.T @ Aw)
+    # write the fitted amplitudes back into the effects
+    effects = list(comp.effects)
+    nn = problem.nuisance.shape[1]
+    for j, (eff, amp) in enumerate(names):
+        idx = next(k for k, e in enumerate(effects) if e.name == eff)
+        effects[idx] = effects[idx].with_values(**{amp: float(np.clip(beta[nn + j], lo[nn + j], hi[nn + j]))})
+    comp = Composition(effects)
+    residual = problem.y - X_full @ beta - fixed
+    cal = Calibration(comp, names, beta, cov, ar, X_full, fixed, inputs, residual, r_avg)
+    cal.nonlinear_ci = profile_ci(problem, comp, ar, slots, pinned)
+    cal.pinned = aliases
+    return cal
+
+
+def profile_ci(problem: Problem, comp: Composition, ar: ARModel, slots, pinned: frozenset = frozenset()) -> dict:
+    """95 % profile-likelihood interval of each nonlinear parameter: n ln(RSS/RSS_min) ≤ 3.84,
+    RSS of the prewhitened averaged fit.
+
+    Parameters
+    ----------
+    problem : Problem
+    comp : Composition
+        The calibrated model.
+    ar : ARModel
+        The noise model used for prewhitening.
+    slots : list of (effect index, parameter name)
+        The free nonlinear parameters.
+    pinned : frozenset of (effect, amplitude)
+        Amplitudes held at their values.
+
+    Returns
+    -------
+    dict
+        (effect, parameter) → (low, high).
+    """
+    out = {}
+    for i, pname in slots:
+        v0 = comp.effects[i].values[pname]
+        lo_b, hi_b = next(p.bounds for p in comp.effects[i].parameters if p.name == pname)
+        # coarse ±1.2 in log for wide profiles, fine ±10 % for sharp ones
+        steps = np.r_[np.linspace(-1.2, 1.2, 25), np.linspace(-0.1, 0.1, 21)]
+        grid = np.unique(np.clip(v0 * np.exp(steps), lo_b, hi_b))
+        rss = []
+        for v in grid:
+            c = _with(comp, i, pname, float(v))
+            X, names, fixed, _ = design_matrix(problem, c, pinned)
+            A = problem.avg(np.column_stack([problem.nuisance, X]))
+            b = problem.avg(problem.y - fixed)
+            Aw, bw = ar.prewhiten(A, problem.run_avg), ar.prewhiten(b, problem.run_avg)
+            beta = np.linalg.lstsq(Aw, bw, rcond=None)[0]
+            r = bw - Aw @ beta
+            rss.append(float(r @ r))
+        n = problem.run_avg.size
+        stat = n * np.log(np.array(rss) / min(rss))  # likelihood-ratio statistic, χ²(1) under H0
+        k0 = int(np.argmin(stat))
+
+        def crossing(ks):  # first grid step where the statistic passes 3.84, linearly interpolated
+            for a, b in zip(ks[:-1], ks[1:]):
+                if stat[b] > 3.84:
+                    f = (3.84 - stat[a]) / (stat[b] - stat[a])
+                    return float(grid[a] + f * (grid[b] - grid[a]))
+            return float(grid[ks[-1]])
+
+        lo_ci = crossing(list(range(k0, -1, -1))) if k0 > 0 else float(grid[0])
+        hi_ci = crossing(list(range(k0, grid.size))) if k0 < grid.size - 1 else float(grid[-1])
+        out[(comp.effects[i].name, pname)] = (lo_ci, hi_ci)
+    return out

@@ -1,0 +1,153 @@
+"""The diagnosis in plain language: remedies, residual signatures, the finding.
+
+Every English sentence of ``twin compare`` lives here; the other modules decide, this one says.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from twin.diagnosis.selection import cross_family_partners
+
+if TYPE_CHECKING:
+    from twin.diagnosis.diagnose import Diagnosis
+
+# What would make an effect testable or separable (diagnosis-methods §2).
+REMEDY = {
+    "scale_factor": "add orientations: a +1 g / -1 g (tumble) run makes scale-factor drift odd in g",
+    "bias_tc": "bias tempcos of MEMS, package and ASIC share one signature: only another package/board or "
+               "self-test data separate them",
+    "thermal_lag": "add a second probe on the PCB and a second ramp rate (lag and gradient respond differently)",
+    "hysteresis": "add a second ramp rate and long dwells (lag scales with rate, hysteresis does not)",
+    "aging": "return to the same temperature at start and end and repeat identical cycles",
+    "warmup": "power-cycle the device 2-3 times at different chamber temperatures, keeping the first samples",
+    "probe": "glue a calibrated reference probe to the package: a probe offset is absorbed by the fitted offset",
+}
+
+SIGNATURE = {
+    "thermal_lag": "The residual follows −dT/dt, changes sign between heating and cooling and settles in dwells",
+    "hysteresis": "Heating and cooling branches of the residual differ at the same temperature (a loop in residual vs "
+                  "temperature)",
+    "scale_factor": "The residual flips sign with the orientation (odd in the applied g) and grows with temperature",
+    "bias_tc": "The residual is a smooth function of temperature, the same on heating and cooling",
+    "aging": "The residual drifts steadily in time, whatever the temperature",
+    "warmup": "The residual has a transient after each power-on",
+}
+
+# reasons and remedies of the audit
+UNIDENTIFIABLE = "structurally unidentifiable from residuals"
+ORIENTATION_NOT_LOGGED = "orientation not logged"
+OFFSET_ALIAS_REMEDY = ("the temperature is nearly constant within each run and the runs differ in "
+                       "orientation/offset: temperature and orientation cannot be separated; log the "
+                       "orientation and ramp the temperature within a run")
+
+
+def absorbed_reason(novelty: float) -> str:
+    """Why a candidate with this novelty is untestable.
+
+    Parameters
+    ----------
+    novelty : float
+
+    Returns
+    -------
+    str
+    """
+    return f"novelty {novelty:.3g}: what it would add, the calibrated model already absorbs"
+
+
+def confounding_remedy(span_c: float, between_c: float) -> str:
+    """The remedy when the per-run offsets absorb orientation and temperature together.
+
+    Parameters
+    ----------
+    span_c : float
+        Largest within-run temperature span (5th–95th percentile) [°C].
+    between_c : float
+        Spread of the runs' median temperatures [°C].
+
+    Returns
+    -------
+    str
+    """
+    return (f"each run sits at a nearly constant temperature (within-run span ≤ {span_c:.1f} °C, "
+            f"{between_c:.1f} °C between runs) and the orientation is not logged, so the per-run "
+            "offsets absorb gravity projection and temperature together: this data cannot separate "
+            "orientation from temperature; log the orientation, or ramp the temperature within a run "
+            "in a fixed orientation")
+
+
+def _fmt_mg(x_g: float) -> str:
+    return f"{x_g * 1e3:.3g} mg"
+
+
+def finding_text(d: Diagnosis) -> str:
+    """A plain-language finding for the report and the CLI.
+
+    Parameters
+    ----------
+    d : Diagnosis
+
+    Returns
+    -------
+    str
+        The finding, then what cannot be separated or tested and how to fix it.
+    """
+    rms = d.rms_residual_g
+    parts = [f"This data cannot separate {' from '.join(a['effects'])}: {a['remedy']}." for a in d.aliases
+             if a.get("aliased_with") == "per-run offsets"]
+    if d.selected:
+        top = d.selected[0]
+        sig = SIGNATURE.get(top.family, f"The residual has the signature of {top.family}")
+        values = top.refined_values or top.grid_values
+        param = ", ".join(f"{k} ≈ {v:.3g}" for k, v in values.items())
+        phys = {"thermal_lag": f"the die lags the thermometer by ≈{values.get('tau_s', float('nan')):.0f} s"}.get(
+            top.effect, f"best explanation: {top.effect}" + (f" ({param})" if param else ""))
+        parts.append(f"{sig}: {phys}. Adding {top.effect} lowers the RMS from {_fmt_mg(rms)} to "
+                     f"{_fmt_mg(top.rms_residual_g)}; noise floor {_fmt_mg(d.noise_floor_g)} "
+                     f"(ΔBIC {top.delta_bic:.0f}, held-out gain {100 * top.heldout_gain:.0f} %).")
+        if len(d.selected) > 1:
+            parts.append("Also missing: " + ", ".join(c.effect for c in d.selected[1:]) + ".")
+        if d.confidence == "uncertain":
+            parts.append("Confidence is limited: " + ("structure remains after adding it (it removes "
+                                                      f"{100 * (d.slow_share or 0):.0f} % of the slow residual)"
+                                                      if (d.slow_share or 0) < 0.5 else "its coefficient differs between runs"
+                                                      if d.run_consistent is False else
+                                                      f"this data cannot tell it from {' / '.join(d.rivals)}"
+                                                      if d.rivals else
+                                                      "temperature is confounded with the per-run offsets") + ".")
+    elif d.withheld:
+        w = d.withheld[0]
+        parts.append(f"{w['effect']} passes the significance tests, but {w['outranked_by']} ({w['outranked_by_family']}) "
+                     f"explains more of the residual (ΔBIC {w['delta_bic'][1]:.0f} vs {w['delta_bic'][0]:.0f}) without "
+                     f"passing them: the data do not say which effect is missing, so none is named. To separate "
+                     f"them: {REMEDY.get(w['outranked_by_family'], 'a different test plan')}.")
+    else:
+        parts.append(f"No missing effect found: residual RMS {_fmt_mg(rms)} against a noise floor of "
+                     f"{_fmt_mg(d.noise_floor_g)}.")
+        if rms > 1.5 * d.noise_floor_g:
+            parts.append(f"The residual is {rms / d.noise_floor_g:.1f}× the white-noise floor: slow correlated noise "
+                         "or structure outside the library remains (see the Allan deviation and dwell plots).")
+    remedies: dict[str, list[str]] = {}
+    top_effects = {c.effect for c in d.selected}
+    for a in d.aliases:
+        if a.get("aliased_with") == "per-run offsets":
+            continue
+        if d.selected and not d.rivals:
+            top = d.selected[0]
+            others = cross_family_partners(top, [a], d.candidates)
+            if others:  # alike in shape, yet the evidence tells them apart: say so, not "not separable"
+                best = max(others, key=others.get)
+                parts.append(f"{' / '.join(a['effects'])} are alike in shape with this test plan, but the evidence "
+                             f"separates them here: {top.effect} ΔBIC {top.delta_bic:.0f} against "
+                             f"{others[best]:.0f} for {best}.")
+                continue
+        if "aliased_with" in a or top_effects & set(a["effects"]):
+            remedies.setdefault(a["remedy"], []).append(" / ".join(a["effects"]) +
+                                                        (f" (with {a['aliased_with']})" if "aliased_with" in a else ""))
+    for u in d.untestable:
+        if u["family"] in ("scale_factor", "probe"):
+            remedies.setdefault(u["remedy"], []).append(u["effect"])
+    for remedy, what in remedies.items():
+        parts.append(f"Not separable or not testable with this data: {', '.join(dict.fromkeys(what))}. To fix: {remedy}.")
+    return " ".join(parts)

@@ -1,0 +1,171 @@
+"""The measurement prepared for modelling (diagnosis-methods §1 step 1) and the model's design.
+
+The thermometer is smoothed with a zero-phase filter only (a causal one would inject the lag the
+tool then "discovers"); blocks are averaged (10 s) for screening.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+
+from twin.effects import Composition, EffectInputs, get_effect
+from twin.measurement import Measurement
+from twin.diagnosis.noise import BlockAverager
+
+
+@dataclass
+class DiagnosisConfig:
+    average_s: float = 10.0
+    smooth_temperature_s: float = 10.0
+    max_ar_order: int = 20
+    alpha: float = 0.01
+    min_delta_bic: float = 10.0
+    min_heldout_gain: float = 0.05
+    cv_folds: int = 5
+    cv_block_s: float = 300.0
+    max_added: int = 3
+    alias_novelty: float = 0.02
+    alias_correlation: float = 0.9
+    slow_window_s: float = 1800.0
+
+
+class Problem:
+    """A measurement prepared for modelling."""
+
+    def __init__(self, m: Measurement, config: DiagnosisConfig):
+        self.m, self.config = m, config
+        rate = m.sample_rate_hz
+        self.rate_hz = rate
+        w = max(1, int(round(config.smooth_temperature_s * rate)))
+        temp = np.empty_like(m.temperature_c)
+        for s in run_slices(m.run_index):
+            temp[s] = uniform_filter1d(m.temperature_c[s], w, mode="nearest") if w > 1 else m.temperature_c[s]
+        applied = m.applied_g.copy()
+        if not m.applied_known:  # orientation unknown: a per-run constant (absorbed by per-run offsets)
+            for s in run_slices(m.run_index):
+                applied[s] = np.median(m.output_g[s])
+        self.applied = applied
+        self.inputs = EffectInputs(time_s=m.time_s, die_c=temp, thermometer_c=temp, applied_g=applied,
+                                   run_index=m.run_index, time_since_power_on_s=m.time_since_power_on_s())
+        self.y = m.output_g - applied
+        self.avg = BlockAverager.build(m.run_index, int(round(config.average_s * rate)))
+        self.run_avg = self.avg.run_of_block
+        cols, names = [], []
+        for r in range(m.runs):
+            cols.append((m.run_index == r).astype(float))
+            names.append(f"offset_run{r}")
+        # sensitivity error K1 (IEEE 1293): separable from the per-run offsets only when the
+        # orientation changes within a run (a tumble); with one orientation per run it is their difference
+        if m.applied_known and any(np.std(applied[s]) > 0.1 for s in run_slices(m.run_index)):
+            cols.append(applied)
+            names.append("scale_factor_k1")
+        self.nuisance = np.column_stack(cols)
+        self.nuisance_names = names
+
+    @property
+    def n(self) -> int:
+        return int(self.y.size)
+
+
+def run_slices(run_index: np.ndarray) -> list[slice]:
+    """Contiguous stretches of equal run index.
+
+    Parameters
+    ----------
+    run_index : np.ndarray
+        Run of each sample.
+
+    Returns
+    -------
+    list[slice]
+        One slice per run, in sample order.
+    """
+    edges = np.r_[0, np.flatnonzero(np.diff(run_index)) + 1, len(run_index)]
+    return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def design_matrix(problem: Problem, comp: Composition, pinned: frozenset = frozenset()
+                  ) -> tuple[np.ndarray, list[tuple[str, str]], np.ndarray, EffectInputs]:
+    """Full-rate columns of the model's free amplitudes, their names, the fixed part, the inputs.
+
+    ``pinned`` amplitudes (exactly aliased ones) are held at their current values.
+
+    Parameters
+    ----------
+    problem : Problem
+        The prepared measurement.
+    comp : Composition
+        The model.
+    pinned : frozenset of (effect, amplitude)
+        Amplitudes held at their current values.
+
+    Returns
+    -------
+    X : np.ndarray
+        n × k columns, one per free amplitude, per unit of the parameter.
+    names : list of (effect, amplitude)
+        The columns' names.
+    fixed : np.ndarray
+        The output of everything not free.
+    inputs : EffectInputs
+        The inputs with the model's die temperature.
+    """
+    inputs = comp.with_die_temperature(problem.inputs)
+    cols, names = [], []
+    fixed = np.zeros(problem.n)
+    for e in comp.drift_effects:
+        fit_all = e.context.get("fit_all", False)  # added by the user: its amplitudes are calibrated too
+        free = {p.name for p in e.parameters
+                if p.role == "amplitude" and (p.free or fit_all) and (e.name, p.name) not in pinned}
+        for amp, contrib in e.basis(inputs).items():
+            col = np.broadcast_to(contrib.output_g(problem.applied), (problem.n,)).astype(float)
+            if amp in free:
+                cols.append(col)
+                names.append((e.name, amp))
+            else:
+                fixed += e.values[amp] * col
+    X = np.column_stack(cols) if cols else np.zeros((problem.n, 0))
+    return X, names, fixed, inputs
+
+
+def amplitude_bounds(names: list[tuple[str, str]], n_nuisance: int) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds of the nuisance (unbounded) then the named amplitudes.
+
+    Parameters
+    ----------
+    names : list of (effect, amplitude)
+        Amplitude columns, as from :func:`design_matrix`.
+    n_nuisance : int
+        Number of nuisance columns before them.
+
+    Returns
+    -------
+    lo, hi : np.ndarray
+    """
+    lo, hi = [-np.inf] * n_nuisance, [np.inf] * n_nuisance
+    for eff, amp in names:
+        p = next(p for p in get_effect(eff).parameters if p.name == amp)
+        lo.append(p.bounds[0])  # columns are per unit of the parameter: bounds apply as they are
+        hi.append(p.bounds[1])
+    return np.array(lo), np.array(hi)
+
+
+def cv_folds(problem: Problem) -> np.ndarray:
+    """Fold of each averaged block for interleaved-block cross-validation.
+
+    Parameters
+    ----------
+    problem : Problem
+
+    Returns
+    -------
+    np.ndarray
+        Fold index (``0 … cv_folds − 1``) of each block, in blocks of ``cv_block_s``.
+    """
+    cfg = problem.config
+    block = max(1, int(round(cfg.cv_block_s / cfg.average_s)))
+    idx = np.arange(problem.run_avg.size)
+    return (idx // block) % cfg.cv_folds

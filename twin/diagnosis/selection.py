@@ -1,0 +1,194 @@
+"""Forward selection and the confidence label (diagnosis-methods §1 step 5).
+
+The best-ranked significant candidate is named, unless a testable candidate of another family
+outranks it (more ΔBIC, short of a threshold); then nothing is named, the pair is reported as
+``withheld`` and the confidence is uncertain. The label comes from the slow-residual share, run
+consistency, confounding and rival explanations.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+from scipy import stats
+from scipy.ndimage import uniform_filter1d
+
+from twin.effects import get_effect
+from twin.diagnosis.calibrate import Calibration
+from twin.diagnosis.problem import DiagnosisConfig, Problem
+from twin.diagnosis.screen import CandidateResult, is_testable, screen
+
+
+class Pick(NamedTuple):
+    """Outcome of :func:`next_selection`."""
+
+    candidate: CandidateResult | None  # the best-ranked significant testable candidate
+    blocker: CandidateResult | None  # a testable candidate of another family ranked above it
+
+
+@dataclass
+class Selection:
+    selected: list[CandidateResult] = field(default_factory=list)  # named, in order of selection
+    withheld: list[dict] = field(default_factory=list)  # significant but outranked by another family
+
+
+@dataclass
+class Confidence:
+    label: str  # "confident", "uncertain" or "none"
+    slow_share: float | None = None  # share of the slow residual the named effect removes
+    run_consistent: bool | None = None  # its coefficient is the same in every run
+    rivals: list[str] = field(default_factory=list)  # other families aliased with it, ≥ ½ its ΔBIC
+
+
+def next_selection(pool: list[CandidateResult], cfg: DiagnosisConfig) -> Pick:
+    """The best-ranked significant testable candidate, and what outranks it if it cannot be claimed.
+
+    A significant candidate ranked below a testable one of *another* family (more ΔBIC, but short
+    of a threshold, e.g. held-out gain) is not claimed: the evidence prefers the other family, so
+    naming either would be a guess.
+
+    Parameters
+    ----------
+    pool : list of CandidateResult
+        A screening, in rank order.
+    cfg : DiagnosisConfig
+
+    Returns
+    -------
+    Pick
+        (candidate or None, blocking candidate or None).
+    """
+    above: list[CandidateResult] = []
+    for c in pool:
+        if not is_testable(c, cfg):
+            continue
+        if c.significant:
+            return Pick(c, next((b for b in above if b.family != c.family), None))
+        above.append(c)
+    return Pick(None, None)
+
+
+def forward_selection(problem: Problem, cal: Calibration, first: list[CandidateResult], n_tests: int) -> Selection:
+    """Name effects one at a time, rescreening the other families on top of those named.
+
+    Parameters
+    ----------
+    problem : Problem
+    cal : Calibration
+    first : list of CandidateResult
+        The first screening.
+    n_tests : int
+        Bonferroni count of the first screening, kept for every rescreening.
+
+    Returns
+    -------
+    Selection
+    """
+    cfg = problem.config
+    out = Selection()
+    pool = first
+    extra = None
+    while pool and len(out.selected) < cfg.max_added:
+        top, blocker = next_selection(pool, cfg)
+        if blocker is not None:
+            out.withheld.append({"effect": top.effect, "family": top.family, "outranked_by": blocker.effect,
+                                 "outranked_by_family": blocker.family,
+                                 "delta_bic": [top.delta_bic, blocker.delta_bic]})
+            break
+        if top is None:
+            break
+        out.selected.append(top)
+        extra = np.column_stack([extra, top.columns_full]) if extra is not None else top.columns_full
+        rest = [c.effect for c in pool if c.effect != top.effect and c.family != top.family]
+        pool = screen(problem, cal, rest, extra=extra, n_tests=n_tests) if rest else []
+    return out
+
+
+def cross_family_partners(top: CandidateResult, aliases: list[dict], candidates: list[CandidateResult]) -> dict:
+    """Effects of another family in an alias group with ``top`` (screened ones only) → their ΔBIC.
+
+    Parameters
+    ----------
+    top : CandidateResult
+    aliases : list of dict
+        Alias entries, as in :class:`twin.diagnosis.audit.Audit`.
+    candidates : list of CandidateResult
+        The screening that gives each effect's ΔBIC.
+
+    Returns
+    -------
+    dict
+        Effect name → ΔBIC.
+    """
+    dbic = {c.effect: c.delta_bic for c in candidates}
+    return {e: dbic[e] for a in aliases if "aliased_with" not in a and top.effect in a["effects"]
+            for e in a["effects"] if e in dbic and get_effect(e).family != top.family}
+
+
+def assess_confidence(problem: Problem, cal: Calibration, selection: Selection, aliases: list[dict],
+                      confounded: list[dict], first: list[CandidateResult]) -> Confidence:
+    """The confidence label of the finding.
+
+    Parameters
+    ----------
+    problem : Problem
+    cal : Calibration
+    selection : Selection
+    aliases, confounded : list of dict
+        From the audit.
+    first : list of CandidateResult
+        The first screening.
+
+    Returns
+    -------
+    Confidence
+    """
+    if not selection.selected:
+        return Confidence("uncertain" if confounded or selection.withheld else "none")
+    top = selection.selected[0]
+    X = problem.avg(top.columns_full)
+    J2 = np.column_stack([problem.avg(cal.X_full), X])
+    y2 = problem.avg(problem.y - cal.fixed_full)
+    after = y2 - J2 @ np.linalg.lstsq(J2, y2, rcond=None)[0]
+    slow = _slow_share(problem, cal.residual_avg, after)
+    consistent = _run_consistency(problem, cal, top)
+    # an aliased effect of another family with at least half the named one's ΔBIC is a rival
+    # explanation: naming either is then a guess, however well it fits
+    rivals = sorted(e for e, b in cross_family_partners(top, aliases, first).items() if b >= 0.5 * top.delta_bic)
+    confident = slow >= 0.5 and consistent is not False and not confounded and not rivals
+    return Confidence("confident" if confident else "uncertain", slow, consistent, rivals)
+
+
+def _slow_share(problem: Problem, before: np.ndarray, after: np.ndarray) -> float:
+    w = max(1, int(round(problem.config.slow_window_s / problem.config.average_s)))
+    s0 = uniform_filter1d(before, w, mode="nearest")
+    s1 = uniform_filter1d(after, w, mode="nearest")
+    v0 = float(np.var(s0))
+    return float(1 - np.var(s1) / v0) if v0 > 0 else 0.0
+
+
+def _run_consistency(problem: Problem, cal: Calibration, cand: CandidateResult) -> bool | None:
+    """F-test that the candidate's coefficient is the same in every run (None: one run, or the
+    feature lives in one run only)."""
+    m = problem.m
+    if m.runs < 2:
+        return None
+    X = problem.avg(cand.columns_full)[:, 0]
+    runs = problem.run_avg
+    active = [r for r in range(m.runs) if np.std(X[runs == r]) > 1e-3 * np.std(X)]
+    if len(active) < 2:
+        return None
+    J = problem.avg(cal.X_full)
+    y = problem.avg(problem.y - cal.fixed_full)
+    common = np.column_stack([J, X])
+    split = np.column_stack([J] + [np.where(runs == r, X, 0.0) for r in active])
+    ar = cal.ar
+    cw, sw, yw = ar.prewhiten(common, runs), ar.prewhiten(split, runs), ar.prewhiten(y, runs)
+    r0 = yw - cw @ np.linalg.lstsq(cw, yw, rcond=None)[0]
+    r1 = yw - sw @ np.linalg.lstsq(sw, yw, rcond=None)[0]
+    k = len(active) - 1
+    dof = max(1, yw.size - sw.shape[1])
+    F = ((r0 @ r0 - r1 @ r1) / k) / ((r1 @ r1) / dof)
+    return bool(stats.f.sf(F, k, dof) > 0.001)

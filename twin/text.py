@@ -1,0 +1,98 @@
+"""Reading what users type: YAML mappings with the line of every key, key paths, close-match hints.
+
+Shared by every file format of the project (scenarios, part files, studies) so that each bad input
+gets the same kind of one-line message: ``file:line: key.path: what was expected``.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+import yaml
+
+from twin.errors import ScenarioError
+
+
+def did_you_mean(name: object, options: Iterable, *, label: str | None = "valid", sort: bool = True) -> str:
+    """``"; did you mean 'x'?"`` for the option closest to ``name``.
+
+    Without a close option: ``"; <label>: a, b, c"`` (the options, sorted unless ``sort=False``),
+    or ``""`` when ``label`` is None.
+    """
+    options = [str(o) for o in options]
+    close = difflib.get_close_matches(str(name), options, n=1)
+    if close:
+        return f"; did you mean {close[0]!r}?"
+    if label is None:
+        return ""
+    return f"; {label}: {', '.join(sorted(options) if sort else options)}"
+
+
+def line_map(text: str) -> dict[tuple, int]:
+    """Key path → 1-based YAML line, from the composed node tree (list items by index)."""
+    lines: dict[tuple, int] = {}
+
+    def walk(node: yaml.Node, path: tuple) -> None:
+        lines.setdefault(path, node.start_mark.line + 1)
+        if isinstance(node, yaml.MappingNode):
+            for key, value in node.value:
+                sub = path + (_scalar(key),)
+                lines[sub] = key.start_mark.line + 1
+                walk(value, sub)
+        elif isinstance(node, yaml.SequenceNode):
+            for i, item in enumerate(node.value):
+                walk(item, path + (i,))
+
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError:
+        return lines
+    if root is not None:
+        walk(root, ())
+    return lines
+
+
+def _scalar(key: yaml.Node):
+    """A mapping key as ``safe_load`` reads it (``2:`` → 2, ``"2":`` → "2"), so look-ups match the data."""
+    if not isinstance(key, yaml.ScalarNode):
+        return key.value
+    try:
+        value = yaml.SafeLoader("").construct_object(key)
+        hash(value)
+    except (yaml.YAMLError, TypeError):
+        return key.value
+    return value
+
+
+def format_path(loc: tuple) -> str:
+    """``('program', 'steps', 1, 'dwell_s')`` → ``program.steps[1].dwell_s``."""
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "(top level)"
+
+
+def where(path: str, lines: dict[tuple, int], loc: tuple) -> str:
+    """``file:line`` of the deepest part of ``loc`` the YAML has (``file`` alone if none)."""
+    for n in range(len(loc), -1, -1):
+        if loc[:n] in lines:
+            return f"{path}:{lines[loc[:n]]}"
+    return path
+
+
+def load_yaml_mapping(text: str, path: str, what: str) -> tuple[dict, dict[tuple, int]]:
+    """Parse YAML that must be a mapping; return it with its key-path → line map.
+
+    Raises :class:`ScenarioError` with ``path:line: malformed YAML: ...`` or ``path: <what>, got list``.
+    """
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f":{mark.line + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ScenarioError(f"{path}{line}: malformed YAML: {problem}") from None
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{path}: {what}, got {type(data).__name__}")
+    return data, line_map(text)
