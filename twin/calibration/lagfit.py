@@ -159,7 +159,7 @@ def covariance(profile: Profile, tau_d: np.ndarray, tau_g: np.ndarray, coef: lis
     τ_die and τ_rate per axis (NaN where unused).
     """
     keep, n = profile.keep, profile.y.shape[0]
-    blocks, tau_cols = [], []
+    blocks = []
     for a in range(3):
         g = tau_g[a] if np.isfinite(tau_g[a]) else None
         F = profile.design(tau_d[a], g, keep)

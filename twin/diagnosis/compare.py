@@ -1,8 +1,7 @@
-"""``twin compare``: the blind compare → diagnose → report loop on files."""
+"""The blind compare of a scenario's twin with one single-axis measurement."""
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
@@ -12,8 +11,8 @@ from twin.diagnosis.diagnose import diagnose
 from twin.diagnosis.problem import DiagnosisConfig, Problem
 from twin.effects import Composition, get_effect
 from twin.errors import ModelError, TwinError
-from twin.measurement import ColumnMap, Measurement, load_measurements
-from twin.model.scenario import LoadedScenario, load_scenario
+from twin.measurement import Measurement
+from twin.model.scenario import LoadedScenario
 
 
 def sensor_noise_floor_g(loaded: LoadedScenario, rate_hz: float) -> float | None:
@@ -53,20 +52,3 @@ def compare_measurement(loaded: LoadedScenario, m: Measurement, with_effects: li
     result["measurement"] = {"files": m.sources, "bad_rows_skipped": m.bad_rows_skipped, "notes": m.notes,
                              "applied_known": m.applied_known}
     return d, result
-
-
-def run_compare(scenario: Path, measurements: list[Path], cmap: ColumnMap, with_effects: list[str], applied,
-                skip_bad_rows: bool, average_s: float, report: Path | None, json_out: str | None):
-    loaded = load_scenario(scenario)
-    m = load_measurements(measurements, cmap, skip_bad_rows=skip_bad_rows, applied_g=applied)
-    d, result = compare_measurement(loaded, m, with_effects, average_s)
-    ledger_dir = report if report is not None else (Path(json_out).parent if json_out not in (None, "-") else None)
-    if ledger_dir is not None:
-        from twin.reporting.compare_report import append_ledger, write_report
-
-        ledger = append_ledger(ledger_dir, d, result)
-        result["ledger"] = [{k: e[k] for k in ("model", "rms_residual_g", "heldout_rms_g", "noise_floor_g", "delta_bic")}
-                            for e in ledger]
-        if report is not None:
-            write_report(report, d, result, ledger, title=f"twin compare: {', '.join(p.name for p in measurements)}")
-    return result, d

@@ -15,6 +15,7 @@ from twin.firmware.common import (AXES, G0_M_S2, CalibrationFileError, Calibrati
                                   FirmwareCalError)
 from twin.firmware.json_cal import (SCHEMA_VERSION, JsonCalibration, cal_from_dict, cal_to_dict, read_json_cal,
                                     write_json_cal)
+from twin.firmware.lag_header import lag_aware_c_header, write_lag_aware_c_header
 from twin.firmware.polynomial import HeldoutPolynomialFit, fit_polynomial_heldout, interleaved_folds
 from twin.firmware.px4 import Px4AccelCal, firmware_offset_px4, fit_px4, median_filter, resample_by_temperature
 from twin.firmware.px4_params import (Px4ParamFile, parse_px4_params, px4_cal_from_params, px4_params_text,
@@ -26,8 +27,8 @@ __all__ = [
     "HeldoutPolynomialFit", "JsonCalibration", "Px4AccelCal", "Px4ParamFile",
     "ardupilot_cal_from_parm", "ardupilot_parm_text", "c_header", "cal_from_dict", "cal_to_dict",
     "die_temperature_lag", "firmware_correct_ardupilot", "firmware_offset_px4", "fit_ardupilot",
-    "fit_polynomial_heldout", "fit_px4", "interleaved_folds", "lag_alpha", "median_filter",
+    "fit_polynomial_heldout", "fit_px4", "interleaved_folds", "lag_alpha", "lag_aware_c_header", "median_filter",
     "parse_ardupilot_parm", "parse_px4_params", "px4_cal_from_params", "px4_params_text",
     "read_ardupilot_parm", "read_json_cal", "read_px4_params", "resample_by_temperature",
-    "write_ardupilot_parm", "write_c_header", "write_json_cal", "write_px4_params",
+    "write_ardupilot_parm", "write_c_header", "write_json_cal", "write_lag_aware_c_header", "write_px4_params",
 ]

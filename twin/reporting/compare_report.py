@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.diagnosis.diagnose import Diagnosis
+from twin.measurement import MeasurementError
 from twin.io import atomic_write_text
 
 LEDGER = "ledger.jsonl"
@@ -132,3 +133,50 @@ Noise model AR({result['noise_model']['ar_order']}).</p>
 {imgs}
 </body></html>"""
     return atomic_write_text(directory / "report.html", page)
+
+
+def _ledger(ledger_dir: Path | None, report: Path | None, d, result: dict, title: str) -> None:
+    """Append to the ledger beside the report (or the JSON) and write the report; adds ``ledger`` to ``result``."""
+    if ledger_dir is None:
+        return
+    ledger = append_ledger(ledger_dir, d, result)
+    result["ledger"] = [{k: e[k] for k in ("model", "rms_residual_g", "heldout_rms_g", "noise_floor_g", "delta_bic")}
+                        for e in ledger]
+    if report is not None:
+        write_report(report, d, result, ledger, title=title)
+
+
+def run_compare(scenario: Path, measurements: list[Path], cmap, with_effects: list[str], applied,
+                skip_bad_rows: bool, average_s: float, report: Path | None, json_out: str | None,
+                axes: list[str] | None = None, imu: str | None = None) -> dict:
+    """``twin compare`` on files: one axis (the classic result), or ``axes`` of every IMU in ``imu``
+    (``"all"`` or an instance number), each with its report in ``REPORT/imu{n}_{axis}``."""
+    from twin.diagnosis.axes import compare_imu
+    from twin.diagnosis.compare import compare_measurement
+    from twin.measurement import load_measurements, read_imu_logs
+    from twin.model.scenario import load_scenario
+
+    loaded = load_scenario(scenario)
+    ledger_dir = report if report is not None else (Path(json_out).parent if json_out not in (None, "-") else None)
+    names = ", ".join(p.name for p in measurements)
+    if not axes:
+        m = load_measurements(measurements, cmap, skip_bad_rows=skip_bad_rows, applied_g=applied)
+        d, result = compare_measurement(loaded, m, with_effects, average_s)
+        _ledger(ledger_dir, report, d, result, f"twin compare: {names}")
+        return result
+    per_instance: dict[int, list] = {}
+    for path in measurements:
+        for log in read_imu_logs(path, cmap, skip_bad_rows=skip_bad_rows):
+            per_instance.setdefault(log.instance, []).append(log)
+    if imu not in (None, "all"):
+        if int(imu) not in per_instance:
+            raise MeasurementError(f"{names}: no IMU instance {imu}; the log holds instances {sorted(per_instance)}")
+        per_instance = {int(imu): per_instance[int(imu)]}
+    out = []
+    for instance, logs in sorted(per_instance.items()):
+        joint = compare_imu(loaded, logs, axes, with_effects, average_s, None if applied == 1.0 else applied)
+        for axis, d in joint.diagnoses.items():
+            sub = lambda base: None if base is None else base / f"imu{instance}_{axis}"  # noqa: E731
+            _ledger(sub(ledger_dir), sub(report), d, joint.results[axis], f"twin compare: {names}, IMU {instance} {axis}")
+        out.append(joint.json())
+    return {"imus": out, "finding": " ".join(f"IMU {j['instance']}: {j['finding']}" for j in out)}
