@@ -1,0 +1,93 @@
+"""What every subcommand shares: the app, ``--json``, the one-line error and the output guard.
+
+Conventions: ``--json PATH`` writes the machine-readable result (``-`` for stdout); bad input
+exits with status 2 and one line naming what and where, never a traceback.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from twin.errors import TwinError
+
+app = typer.Typer(
+    name="twin",
+    help="Digital twin of the temperature drift error (TDE) of MEMS accelerometers.",
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+)
+
+JsonOpt = Annotated[Optional[str], typer.Option("--json", help="write the result as JSON to PATH ('-' for stdout)")]
+
+
+def fail(message: str) -> None:
+    """Print ``twin: error: message`` on one line and exit with status 2."""
+    typer.echo(f"twin: error: {' '.join(str(message).split())}", err=True)
+    raise typer.Exit(2)
+
+
+def emit_json(result: dict, dest: str | None) -> None:
+    """Write ``result`` to ``dest`` atomically ('-' = stdout)."""
+    if dest is None:
+        return
+    text = json.dumps(result, indent=2, default=float) + "\n"
+    if dest == "-":
+        sys.stdout.write(text)
+        return
+    from twin.io import atomic_write_text
+
+    atomic_write_text(Path(dest), text)
+
+
+def check_outputs(inputs, outputs) -> None:
+    """Refuse an output that is one of the inputs, a directory, or in a folder that does not exist."""
+    resolved = {Path(p).resolve() for p in inputs if p is not None}
+    for out in outputs:
+        if out is None or str(out) == "-":
+            continue
+        out = Path(out)
+        if out.resolve() in resolved:
+            raise TwinError(f"{out}: the output would overwrite an input; choose another path")
+        if out.is_dir():
+            raise TwinError(f"{out}: is a directory; expected a file path")
+        if not out.resolve().parent.is_dir():
+            raise TwinError(f"{out}: folder {out.parent} does not exist")
+
+
+@contextmanager
+def guard(inputs=(), outputs=()) -> Iterator[None]:
+    """Check the outputs against the inputs, then run the body: our errors and OS errors end in one line."""
+    try:
+        check_outputs(inputs, outputs)
+        yield
+    except TwinError as exc:
+        fail(str(exc))
+    except OSError as exc:
+        fail(f"{exc.filename or ''}: {exc.strerror or exc}")
+
+
+def column_map(columns: Path | None, **overrides):
+    """A column map from ``--columns`` (YAML) with the command-line overrides that were given."""
+    from twin.measurement import ColumnMap
+
+    cmap = ColumnMap.from_yaml(columns) if columns else ColumnMap()
+    for key, value in overrides.items():
+        if value is not None:
+            setattr(cmap, key, value)
+    return cmap
+
+
+def parse_axes(text: str) -> list[str]:
+    """``--axes x,y,z`` as a list; anything but a subset of x, y, z is an error."""
+    axes = [a.strip() for a in text.split(",") if a.strip()]
+    if not axes or any(a not in ("x", "y", "z") for a in axes):
+        raise TwinError(f"--axes expects a comma-separated subset of x,y,z, got {text!r}")
+    return axes

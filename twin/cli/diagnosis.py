@@ -1,0 +1,90 @@
+"""``twin compare``: calibrate the twin to a measurement, show where it fails, name the missing effect."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from twin.cli.common import JsonOpt, app, column_map, emit_json, guard, parse_axes
+from twin.errors import TwinError
+
+
+@app.command()
+def compare(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML: its twin, device.sensor and test_plan")],
+    measurements: Annotated[list[Path], typer.Argument(help="measurement file(s): canonical CSV, any log with a column map, or a twin HDF5 (read blind); several files = several runs")],
+    with_effect: Annotated[Optional[list[str]], typer.Option("--with-effect", help="add this effect to the twin (repeatable)")] = None,
+    report: Annotated[Optional[Path], typer.Option("--report", help="write report.html and the ledger into DIR")] = None,
+    applied_g: Annotated[Optional[str], typer.Option("--applied-g", help="acceleration along the axis when not logged [g], or 'unknown' (default: 1; with --axes: from the data)")] = None,
+    axes: Annotated[Optional[str], typer.Option("--axes", help="compare these axes of a 3-axis log, e.g. x,y,z (per axis and per IMU)")] = None,
+    imu: Annotated[str, typer.Option("--imu", help="with --axes: IMU instance, or 'all'")] = "all",
+    x_col: Annotated[Optional[str], typer.Option(help="x acceleration column of a delimited 3-axis log")] = None,
+    y_col: Annotated[Optional[str], typer.Option(help="y acceleration column")] = None,
+    z_col: Annotated[Optional[str], typer.Option(help="z acceleration column")] = None,
+    columns: Annotated[Optional[Path], typer.Option("--columns", help="column-map YAML for real logs")] = None,
+    time_col: Annotated[Optional[str], typer.Option(help="time column (name or 0-based index)")] = None,
+    temperature_col: Annotated[Optional[str], typer.Option(help="temperature column")] = None,
+    output_col: Annotated[Optional[str], typer.Option(help="acceleration column")] = None,
+    time_unit: Annotated[Optional[str], typer.Option(help="s, ms, us, min, h")] = None,
+    temperature_unit: Annotated[Optional[str], typer.Option(help="C or K")] = None,
+    output_unit: Annotated[Optional[str], typer.Option(help="g, mg, m/s^2, digits")] = None,
+    output_scale: Annotated[Optional[float], typer.Option(help="multiply the output after unit conversion")] = None,
+    skip_lines: Annotated[Optional[int], typer.Option(min=0, help="banner lines to skip")] = None,
+    delimiter: Annotated[Optional[str], typer.Option(help="column delimiter (default: sniffed)")] = None,
+    no_header: Annotated[bool, typer.Option("--no-header", help="the file has no header line (columns by index)")] = False,
+    sample_rate_hz: Annotated[Optional[float], typer.Option(min=0, help="sample rate for logs without a time column [Hz]")] = None,
+    skip_bad_rows: Annotated[bool, typer.Option("--skip-bad-rows", help="skip corrupted rows and report how many")] = False,
+    average_s: Annotated[float, typer.Option(min=0.1, help="screening block average [s]")] = 10.0,
+    json_out: JsonOpt = None,
+) -> None:
+    """Compare the twin with a measurement: calibrate, show where it fails, name the missing effect."""
+    from twin.reporting.compare_report import run_compare
+
+    inputs = [scenario, *measurements] + ([columns] if columns else [])
+    with guard(inputs=inputs, outputs=[None if json_out == "-" else json_out]):
+        cmap = column_map(columns, time=time_col, temperature=temperature_col, output=output_col, time_unit=time_unit,
+                          temperature_unit=temperature_unit, output_unit=output_unit, output_scale=output_scale,
+                          skip_lines=skip_lines, delimiter=delimiter)
+        if no_header:
+            cmap.header = False
+        if sample_rate_hz is not None:
+            cmap.sample_rate_hz, cmap.time = sample_rate_hz, None
+        if axes:
+            for a, col in zip("xyz", (x_col, y_col, z_col)):
+                if col is not None:
+                    setattr(cmap, a, col)
+        applied = _applied(applied_g, bool(axes))
+        result = run_compare(scenario, measurements, cmap, with_effect or [], applied, skip_bad_rows, average_s,
+                             report, json_out, axes=parse_axes(axes) if axes else None, imu=imu)
+    if json_out != "-" and "imus" in result:
+        typer.echo(result["finding"])
+        for imu_result in result["imus"]:
+            for axis, r in imu_result["axes"].items():
+                g = imu_result["orientation_applied_g"][axis]
+                typer.echo(f"  IMU {imu_result['instance']} {axis} ({g} g): residual {r['rms_residual_g'] * 1e3:.3f} mg, "
+                           f"floor {r['noise_floor_g'] * 1e3:.3f} mg, named: {', '.join(r['selected']) or '-'} "
+                           f"({r['confidence']})")
+    elif json_out != "-":
+        typer.echo(result["finding"])
+        typer.echo(f"residual RMS {result['rms_residual_g'] * 1e3:.3f} mg, noise floor {result['noise_floor_g'] * 1e3:.3f} mg, "
+                   f"missing effect: {result['missing_effect_detected']} ({result['confidence']})")
+        for c in result["candidates"][:5]:
+            typer.echo(f"  {c['effect']:<20} {c['family']:<13} {'significant' if c['significant'] else '-':<12} "
+                       f"ΔBIC {c['delta_bic']:9.1f}  gain {100 * c['heldout_gain']:5.1f} %  RMS after {c['rms_residual_g'] * 1e3:.3f} mg")
+        if report:
+            typer.echo(f"report: {report / 'report.html'}")
+    emit_json(result, json_out)
+
+
+def _applied(text: str | None, multi_axis: bool) -> float | str | None:
+    """--applied-g as g, 'unknown', or None (with --axes: take each axis' orientation from the data)."""
+    if text is None:
+        return None if multi_axis else 1.0
+    if text == "unknown":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise TwinError(f"--applied-g expects a number in g or 'unknown', got {text!r}") from None

@@ -1,0 +1,170 @@
+"""Field commands: ``twin calibrate`` (logs → validated compensation), ``twin firmware`` (the file a
+flight controller loads) and ``twin apply`` (a new log compensated)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from twin.cli.common import JsonOpt, app, column_map, emit_json, guard, parse_axes
+from twin.errors import TwinError
+
+AXES_HELP = "axes to calibrate, comma-separated (default x,y,z)"
+
+
+def _imu_logs(logs: list[Path], cmap, imu: str) -> dict:
+    """IMU instance → its logs (several files = several runs), filtered by ``--imu``."""
+    from twin.measurement import read_imu_logs
+
+    per: dict[int, list] = {}
+    for path in logs:
+        for log in read_imu_logs(path, cmap):
+            per.setdefault(log.instance, []).append(log)
+    if imu != "all":
+        try:
+            n = int(imu)
+        except ValueError:
+            raise TwinError(f"--imu expects an instance number or 'all', got {imu!r}") from None
+        if n not in per:
+            raise TwinError(f"{', '.join(map(str, logs))}: no IMU instance {n}; the log holds instances {sorted(per)}")
+        per = {n: per[n]}
+    return per
+
+
+def _print_table(c, axes: list[str]) -> None:
+    v = c.validation
+    idx = [("x", "y", "z").index(a) for a in axes]
+    typer.echo(f"IMU {c.instance} (device_id {c.device_id}), {c.samples} samples, "
+               f"{c.temperature_span_c[0]:.1f}..{c.temperature_span_c[1]:.1f} °C, protocol: {c.protocol}")
+    typer.echo(f"  held-out RMS [mg] {' / '.join(axes)}   (noise floor "
+               f"{' / '.join(f'{v.noise_floor_mg[i]:.2f}' for i in idx)})")
+    for fold in dict.fromkeys(s.fold for s in v.scores):
+        typer.echo(f"  {fold}")
+        for m in v.methods:
+            r = v.rms_mg(m, fold=fold)
+            typer.echo(f"    {m:<11} " + " / ".join(f"{r[i]:6.2f}" for i in idx))
+    rec = c.recommended()
+    typer.echo(f"  recommended: PX4 {rec['px4']}, ArduPilot {rec['ardupilot']}, custom C {rec['c']}; "
+               f"best per axis: {', '.join(f'{a} {v.best_method[i]}' for a, i in zip(axes, idx))}")
+    for note in v.notes:
+        typer.echo(f"  {note}")
+
+
+@app.command()
+def calibrate(
+    logs: Annotated[list[Path], typer.Argument(help="logs of one vehicle or tester: PX4 .ulg, ArduPilot .bin, 3-axis CSV/TSV (several = several runs)")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="calibration document to write (JSON)")],
+    axes: Annotated[str, typer.Option("--axes", help=AXES_HELP)] = "x,y,z",
+    imu: Annotated[str, typer.Option("--imu", help="IMU instance to calibrate, or 'all'")] = "all",
+    columns: Annotated[Optional[Path], typer.Option("--columns", help="column-map YAML for delimited logs (keys time, temperature, x, y, z, units)")] = None,
+    time_col: Annotated[Optional[str], typer.Option(help="time column of a delimited log")] = None,
+    temperature_col: Annotated[Optional[str], typer.Option(help="temperature column")] = None,
+    x_col: Annotated[Optional[str], typer.Option(help="x acceleration column")] = None,
+    y_col: Annotated[Optional[str], typer.Option(help="y acceleration column")] = None,
+    z_col: Annotated[Optional[str], typer.Option(help="z acceleration column")] = None,
+    time_unit: Annotated[Optional[str], typer.Option(help="s, ms, us, min, h")] = None,
+    output_unit: Annotated[Optional[str], typer.Option(help="g, mg, m/s^2, digits")] = None,
+    no_reverse: Annotated[bool, typer.Option("--no-reverse", help="validate heating→cooling only (not also cooling→heating)")] = False,
+    json_out: JsonOpt = None,
+) -> None:
+    """Fit the PX4 and ArduPilot methods, a held-out polynomial and the lag-aware twin per IMU;
+    validate each on data it was not fitted on (heating vs cooling, or leave one run out)."""
+    from twin import __version__
+    from twin.calibration.workflow import calibrate_imu, calibration_json, file_provenance
+
+    with guard(inputs=logs + ([columns] if columns else []), outputs=[output]):
+        chosen = parse_axes(axes)
+        cmap = column_map(columns, time=time_col, temperature=temperature_col, x=x_col, y=y_col, z=z_col,
+                          time_unit=time_unit, output_unit=output_unit)
+        per = _imu_logs(logs, cmap, imu)
+        results = [calibrate_imu(group, reverse=not no_reverse) for _, group in sorted(per.items())]
+        doc = calibration_json(results, file_provenance(logs), __version__)
+        emit_json(doc, str(output))
+    if json_out != "-":
+        for c in results:
+            _print_table(c, chosen)
+        typer.echo(f"wrote {output}; firmware files: twin firmware {output} --format px4|ardupilot|json|c -o FILE")
+    emit_json(doc, json_out)
+
+
+@app.command()
+def firmware(
+    calibration: Annotated[Path, typer.Argument(help="calibration document from twin calibrate")],
+    fmt: Annotated[str, typer.Option("--format", help="px4 (.params for QGroundControl), ardupilot (.parm), json, c (header)")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="file to write")],
+    method: Annotated[Optional[str], typer.Option("--method", help="method to export (default: the recommended one for the format)")] = None,
+    imu: Annotated[Optional[int], typer.Option("--imu", help="IMU instance (json and c write one)")] = None,
+    sample_rate_hz: Annotated[Optional[float], typer.Option("--sample-rate-hz", help="rate the firmware runs the lag filters at (c) [Hz]")] = None,
+    json_out: JsonOpt = None,
+) -> None:
+    """Write the compensation in the exact format a flight controller or custom firmware loads."""
+    from twin.calibration.deploy import export_calibration, read_calibration
+
+    with guard(inputs=[calibration], outputs=[output]):
+        if sample_rate_hz is not None and not 0 < sample_rate_hz < 1e6:
+            raise TwinError(f"--sample-rate-hz must be in (0, 1e6) Hz, got {sample_rate_hz}")
+        doc = read_calibration(calibration)
+        export_calibration(doc, fmt, output, method=method, instance=imu, sample_rate_hz=sample_rate_hz)
+    result = {"output": str(output), "format": fmt, "method": method, "imu": imu}
+    if json_out != "-":
+        typer.echo(f"wrote {output} ({fmt})")
+    emit_json(result, json_out)
+
+
+@app.command()
+def apply(
+    calibration: Annotated[Path, typer.Argument(help="calibration document from twin calibrate")],
+    log: Annotated[Path, typer.Argument(help="a new log of the same IMU")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="compensated CSV to write")],
+    method: Annotated[Optional[str], typer.Option("--method", help="method to apply (default: the best deployable)")] = None,
+    imu: Annotated[Optional[int], typer.Option("--imu", help="IMU instance of the log (default: the calibrated one)")] = None,
+    applied_g: Annotated[Optional[str], typer.Option("--applied-g", help="true acceleration per axis 'gx,gy,gz' [g] for a residual summary")] = None,
+    columns: Annotated[Optional[Path], typer.Option("--columns", help="column-map YAML for delimited logs")] = None,
+    json_out: JsonOpt = None,
+) -> None:
+    """Compensate a new log with a calibration: time, temperature, raw and compensated x, y, z."""
+    import numpy as np
+
+    from twin.calibration.deploy import correction_g, imu_entry, method_entry, read_calibration
+    from twin.io import atomic_write_text
+    from twin.measurement import ColumnMap, read_imu_logs
+
+    with guard(inputs=[calibration, log] + ([columns] if columns else []), outputs=[output]):
+        doc = read_calibration(calibration)
+        logs = read_imu_logs(log, ColumnMap.from_yaml(columns) if columns else None)
+        target = imu if imu is not None else (doc["imus"][0]["instance"] if len(doc["imus"]) == 1 else None)
+        imu_log = next((x for x in logs if target is None or x.instance == target), None)
+        if imu_log is None:
+            raise TwinError(f"{log}: no IMU instance {target}; the log holds {[x.instance for x in logs]}")
+        entry = imu_entry(doc, imu_log.instance if imu is None and len(doc["imus"]) > 1 else target,
+                          imu_log.device_id, str(calibration))
+        name, data = method_entry(entry, method, "c")
+        corrected = imu_log.accel_g - correction_g(data, imu_log.time_s, imu_log.temperature_c)
+        span = entry["temperature_span_c"]
+        outside = float(np.mean((imu_log.temperature_c < span[0]) | (imu_log.temperature_c > span[1])))
+        result = {"output": str(output), "method": name, "instance": imu_log.instance, "rows": len(imu_log),
+                  "extrapolated_fraction": outside}
+        if applied_g is not None:
+            truth = [float(v) for v in applied_g.split(",")] if "," in applied_g else None
+            if truth is None or len(truth) != 3:
+                raise TwinError(f"--applied-g expects 'gx,gy,gz' in g, got {applied_g!r}")
+            res = corrected - np.asarray(truth) - np.median(corrected - np.asarray(truth), axis=0)
+            raw = imu_log.accel_g - np.median(imu_log.accel_g, axis=0)
+            result["residual_rms_mg"] = dict(zip("xyz", map(float, np.sqrt(np.mean(res ** 2, axis=0)) * 1e3)))
+            result["raw_rms_mg"] = dict(zip("xyz", map(float, np.sqrt(np.mean(raw ** 2, axis=0)) * 1e3)))
+        header = "time_s,temperature_c," + ",".join(f"{a}_raw_g,{a}_compensated_g" for a in "xyz")
+        table = np.column_stack([imu_log.time_s, imu_log.temperature_c] +
+                                [c for i in range(3) for c in (imu_log.accel_g[:, i], corrected[:, i])])
+        atomic_write_text(output, header + "\n" + "\n".join(",".join(f"{v:.9g}" for v in row) for row in table) + "\n")
+    if json_out != "-":
+        typer.echo(f"wrote {output}: {len(imu_log)} rows compensated with {name}"
+                   + (f"; {100 * outside:.0f} % of the log outside the calibrated range (extrapolated)" if outside else ""))
+        if "residual_rms_mg" in result:
+            typer.echo("  RMS about the applied g [mg] x / y / z: raw "
+                       + " / ".join(f"{v:.2f}" for v in result["raw_rms_mg"].values()) + ", compensated "
+                       + " / ".join(f"{v:.2f}" for v in result["residual_rms_mg"].values()))
+    emit_json(result, json_out)
+    sys.stdout.flush()

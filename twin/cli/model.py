@@ -1,0 +1,247 @@
+"""Model commands: simulate a scenario, inspect its parts, effects and comb, render it, export a dataset."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from twin.cli.common import JsonOpt, app, emit_json, fail
+from twin.errors import TwinError
+
+
+@app.command()
+def run(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML")],
+    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="HDF5 file to write")] = None,
+    seed: Annotated[Optional[int], typer.Option("--seed", min=0, help="override the scenario's seed")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
+    json_out: JsonOpt = None,
+) -> None:
+    """Simulate a chamber test and write the dataset (HDF5) with its ground truth."""
+    from tqdm import tqdm
+
+    from twin.model.dataset import write_hdf5
+    from twin.model.scenario import load_scenario
+    from twin.model.simulate import STAGES, simulate, summary
+
+    try:
+        loaded = load_scenario(scenario)
+        out = output or (Path(loaded.scenario.output.path) if loaded.scenario.output.path else scenario.with_suffix(".h5"))
+        # tqdm disables itself when stderr is not a terminal (logs, CI).
+        with tqdm(total=len(STAGES) + 1, desc="simulate", unit="stage", disable=True if quiet else None,
+                  leave=False, file=sys.stderr) as bar:
+            def tick(stage: str) -> None:
+                bar.set_description(stage)
+                bar.update(0 if bar.n == 0 and stage == STAGES[0] else 1)
+
+            ds = simulate(loaded, seed=seed, progress=tick)
+            bar.set_description("write HDF5")
+            bar.update(1)
+            write_hdf5(ds, out, compression=loaded.scenario.output.compression)
+            bar.update(1)
+    except TwinError as exc:
+        fail(str(exc))
+    except OSError as exc:
+        fail(f"cannot write {out}: {exc.strerror or exc}")
+    result = {"output": str(out), **summary(ds)}
+    if not quiet and json_out != "-":
+        typer.echo(
+            f"wrote {out}: {result['samples']} samples, {result['duration_h']:.2f} h, die "
+            f"{result['die_range_c'][0]:.1f}..{result['die_range_c'][1]:.1f} °C, drift "
+            f"{result['drift_range_mg'][0]:.2f}..{result['drift_range_mg'][1]:.2f} mg, white noise "
+            f"{result['white_noise_sigma_mg']:.3f} mg"
+        )
+    emit_json(result, json_out)
+
+
+@app.command()
+def schema(
+    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="write the schema here")] = None,
+    json_out: JsonOpt = None,
+) -> None:
+    """Print the JSON Schema of scenario files (for editors)."""
+    from twin.model.scenario import json_schema
+
+    s = json_schema()
+    if output is not None:
+        from twin.io import atomic_write_text
+
+        atomic_write_text(output, json.dumps(s, indent=2) + "\n")
+    elif json_out is None:
+        typer.echo(json.dumps(s, indent=2))
+    emit_json(s, json_out)
+
+
+@app.command("test-design")
+def test_design(
+    lsb_mg: Annotated[Optional[float], typer.Option(min=0, help="sensitivity, 1 LSB [mg] (default: the IIS328DQ part's at its lowest full scale; twin parts)")] = None,
+    tcoff_mg_per_c: Annotated[Optional[float], typer.Option(min=0, help="|TCOff| [mg/°C] (default: the IIS328DQ part's; twin parts)")] = None,
+    tcso_pct_per_c: Annotated[float, typer.Option(min=0, help="TCSo as printed in eq. (33) [%/°C]")] = 0.02,
+    chamber_length_m: Annotated[float, typer.Option(min=0, help="chamber length L [m]")] = 0.6,
+    json_out: JsonOpt = None,
+) -> None:
+    """The paper's test-design numbers (eqs. 31-35) beside physically consistent time scales."""
+    from twin.reporting.paper import design_report
+
+    from twin.parts import design_figures
+    rows = design_report(*design_figures(lsb_mg, tcoff_mg_per_c), tcso_pct_per_c, chamber_length_m)
+    if json_out != "-":
+        for row in rows["items"]:
+            typer.echo(f"{row['name']:<44} {row['value']:>12.6g} {row['unit']:<8} {row['note']}")
+    emit_json(rows, json_out)
+
+
+@app.command()
+def paper(json_out: JsonOpt = None) -> None:
+    """Each derived number of the paper next to what the code computes, with a verdict."""
+    from twin.reporting.paper import paper_report
+
+    report = paper_report()
+    if json_out != "-":
+        for it in report["items"]:
+            printed = "-" if it["paper"] is None else f"{it['paper']:.6g}" if isinstance(it["paper"], float) else str(it["paper"])
+            computed = f"{it['computed']:.6g}" if isinstance(it["computed"], float) else str(it["computed"])
+            typer.echo(f"{it['item']:<34} paper {printed:>10}  code {computed:>12} {it['unit']:<8} {it['verdict']}")
+        typer.echo(f"{report['reproduced']} reproduced, {report['differs']} differ, {report['computed']} computed (not in the paper)")
+    emit_json(report, json_out)
+
+
+@app.command()
+def comb(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML (its device.geometry)")],
+    acceleration_g: Annotated[float, typer.Option("--acceleration-g", help="input acceleration [g]")] = 1.0,
+    t_low_c: Annotated[float, typer.Option(help="sweep start [°C]")] = -20.0,
+    t_high_c: Annotated[float, typer.Option(help="sweep end [°C]")] = 50.0,
+    json_out: JsonOpt = None,
+) -> None:
+    """Comb thermal drift under each reading (P, S, H, HE): offset and scale-factor parts."""
+    from twin.reporting.comb import comb_report
+    from twin.model.scenario import load_scenario
+
+    try:
+        loaded = load_scenario(scenario)
+        report = comb_report(loaded.geometry(), acceleration_g, t_low_c, t_high_c)
+    except (TwinError, ValueError) as exc:
+        fail(str(exc))
+    if json_out != "-":
+        typer.echo(f"comb cell: C2 = {report['C2_fF']:.3f} fF, C1 = {report['C1_fF']:.3f} fF, "
+                   f"signal {report['signal_fF_per_g']:.4f} fF/g, du(1 g) = {report['du_1g_nm']:.1f} nm")
+        for r in report["readings"]:
+            typer.echo(f"  {r['reading']:<3} slope {r['slope_mg_per_c']:+.5f} mg/°C at {acceleration_g:g} g, "
+                       f"ends {r['drift_low_mg']:+.4f} / {r['drift_high_mg']:+.4f} mg, max offset {r['max_offset_mg']:.2g} mg  "
+                       f"({r['meaning']})")
+        typer.echo(f"  for scale: {loaded.part.tempco_text(acceleration_g)}")
+    emit_json(report, json_out)
+
+
+@app.command()
+def render(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML (its device.geometry)")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="PNG (one temperature) or GIF/MP4 (--sweep)")],
+    temperature: Annotated[float, typer.Option("--temperature", help="temperature [°C]")] = 50.0,
+    sweep: Annotated[Optional[str], typer.Option("--sweep", help="START:STOP:STEP in °C, e.g. -20:50:5")] = None,
+    exaggeration: Annotated[float, typer.Option("--exaggeration", min=0, help="displacement scale factor")] = 2000.0,
+    acceleration_g: Annotated[float, typer.Option("--acceleration-g", help="input acceleration [g]")] = 0.0,
+    reading: Annotated[str, typer.Option("--reading", help="thermal reading: P, S, H or HE")] = "S",
+    json_out: JsonOpt = None,
+) -> None:
+    """Off-screen image of the comb cell deformed at a temperature, or a sweep as GIF/MP4."""
+    from sim.microstructure import READINGS
+    from twin.model.scenario import load_scenario
+
+    try:
+        loaded = load_scenario(scenario)
+        if reading not in READINGS:
+            raise ValueError(f"--reading must be one of {', '.join(READINGS)}, got {reading!r}")
+        suffix = output.suffix.lower()
+        if sweep is None and suffix != ".png":
+            raise ValueError(f"-o {output}: a single image is written as .png (use --sweep for .gif/.mp4)")
+        if sweep is not None and suffix not in (".gif", ".mp4"):
+            raise ValueError(f"-o {output}: a sweep is written as .gif or .mp4")
+        from twin.reporting import render as rd
+
+        temps = rd.parse_sweep(sweep) if sweep is not None else None
+    except (TwinError, ValueError) as exc:
+        fail(str(exc))
+    from tqdm import tqdm
+
+    geometry = loaded.geometry()
+    if temps is None:
+        rd.render_png(geometry, temperature, output, exaggeration=exaggeration, acceleration_g=acceleration_g, reading=reading)
+        result = {"output": str(output), "temperatures_c": [temperature], "frames": 1}
+    else:
+        with tqdm(total=len(temps), desc="render", unit="frame", leave=False, file=sys.stderr, disable=None) as bar:
+            rd.render_sweep(geometry, temps, output, exaggeration=exaggeration, acceleration_g=acceleration_g,
+                            reading=reading, progress=lambda t: bar.update(1))
+        result = {"output": str(output), "temperatures_c": [float(t) for t in temps], "frames": len(temps)}
+    result.update(exaggeration=exaggeration, reading=reading, acceleration_g=acceleration_g)
+    if json_out != "-":
+        typer.echo(f"wrote {output} ({result['frames']} frame{'s' if result['frames'] > 1 else ''})")
+    emit_json(result, json_out)
+
+
+@app.command()
+def effects(
+    scenario: Annotated[Optional[Path], typer.Argument(help="scenario whose twin.plugins to load first")] = None,
+    plugin: Annotated[Optional[list[str]], typer.Option("--plugin", help="effect module (.py path or module name) to load; runs its code")] = None,
+    json_out: JsonOpt = None,
+) -> None:
+    """List the registered effects: names, families, parameters with units, bounds and sources."""
+    from twin.effects import REGISTRY, load_plugin
+
+    try:
+        if scenario is not None:
+            from twin.model.scenario import load_scenario
+
+            load_scenario(scenario)
+        for spec in plugin or []:
+            load_plugin(spec)
+    except TwinError as exc:
+        fail(str(exc))
+    table = [REGISTRY[name].describe() for name in sorted(REGISTRY, key=lambda n: (REGISTRY[n].family, n))]
+    if json_out != "-":
+        for e in table:
+            params = ", ".join(f"{p['name']} [{p['unit']}] {p['default']:g} in [{p['bounds'][0]:g}, {p['bounds'][1]:g}]"
+                               f"{' (' + p['role'] + ')' if p['role'] != 'amplitude' else '' if p['free'] else ' (not fitted by default)'}"
+                               for p in e["parameters"])
+            typer.echo(f"{e['name']:<20} {e['family']:<13} {params or '-'}")
+    emit_json({"effects": table}, json_out)
+
+
+@app.command()
+def parts(part: Annotated[Optional[list[str]], typer.Argument(help="part names or part YAML files (default: the built-in parts)")] = None, json_out: JsonOpt = None) -> None:
+    """List the sensor parts: each datasheet figure with its unit, source and whether it was verified (read in a source)."""
+    from twin.parts import PARTS, load_part, table_lines
+
+    try:
+        chosen = [load_part(p) for p in part] if part else list(PARTS.values())
+    except TwinError as exc:
+        fail(str(exc))
+    if json_out != "-":
+        typer.echo("\n".join(table_lines(chosen)))
+    emit_json({"parts": [p.describe() for p in chosen]}, json_out)
+
+
+@app.command()
+def export(
+    dataset: Annotated[Path, typer.Argument(help="HDF5 dataset from twin run")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="canonical CSV to write")],
+    json_out: JsonOpt = None,
+) -> None:
+    """Write a dataset's logged columns as canonical CSV (time_s, temperature_c, output_g, applied_g,
+    run, power_on) - the measurement a lab would have, without the truth."""
+    from twin.measurement import read_dataset_blind, write_canonical_csv
+
+    try:
+        m = read_dataset_blind(dataset)
+        write_canonical_csv(output, m.time_s, m.temperature_c, m.output_g, m.applied_g, m.run_index, m.power_on)
+    except TwinError as exc:
+        fail(str(exc))
+    result = {"output": str(output), "rows": len(m), "runs": m.runs}
+    if json_out != "-":
+        typer.echo(f"wrote {output}: {len(m)} rows, {m.runs} run(s)")
+    emit_json(result, json_out)
