@@ -205,7 +205,9 @@ def main() -> None:
     result["all_pass"] = all(v["pass"] for v in result["criteria"].values())
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
+    from _common import machine
+
+    out.write_text(json.dumps({**result, "machine": machine()}, indent=2) + "\n")
     print(json.dumps(result["criteria"], indent=2))
 
 
