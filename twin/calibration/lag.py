@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim.drift import lowpass
+from twin.arrays import run_slices
 from twin.errors import TwinError
 
 
@@ -33,9 +34,7 @@ class ThermalLog:
 
     def segments(self) -> list[slice]:
         """Contiguous slices of equal run id, in order."""
-        edges = np.flatnonzero(np.diff(self.run)) + 1
-        bounds = np.r_[0, edges, self.run.size]
-        return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        return run_slices(self.run)
 
 
 def make_X(time_s, temperature_c, run=None) -> np.ndarray:

@@ -11,13 +11,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twin.effects import get_effect
+from twin.arrays import run_slices
 from twin.diagnosis.calibrate import Calibration
-from twin.diagnosis.language import (OFFSET_ALIAS_REMEDY, ORIENTATION_NOT_LOGGED, REMEDY, UNIDENTIFIABLE,
-                                     absorbed_reason, confounding_remedy)
+from twin.diagnosis.language import (
+    OFFSET_ALIAS_REMEDY,
+    ORIENTATION_NOT_LOGGED,
+    REMEDY,
+    UNIDENTIFIABLE,
+    absorbed_reason,
+    confounding_remedy,
+)
 from twin.diagnosis.linalg import closest_column, novelty, orthonormal_basis
-from twin.diagnosis.problem import DiagnosisConfig, Problem, run_slices
+from twin.diagnosis.problem import DiagnosisConfig, Problem
 from twin.diagnosis.screen import CandidateResult, candidate_names, is_testable
+from twin.effects import get_effect
 
 
 @dataclass

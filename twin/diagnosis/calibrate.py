@@ -12,10 +12,20 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from twin.effects import Composition, EffectInputs
-from twin.diagnosis.linalg import closest_column, fit_bounded_linear, novelty, orthonormal_basis
+from twin.diagnosis.linalg import (
+    closest_column,
+    fit_bounded_linear,
+    novelty,
+    orthonormal_basis,
+)
 from twin.diagnosis.noise import ARModel, fit_ar
-from twin.diagnosis.problem import DiagnosisConfig, Problem, amplitude_bounds, design_matrix
+from twin.diagnosis.problem import (
+    DiagnosisConfig,
+    Problem,
+    amplitude_bounds,
+    design_matrix,
+)
+from twin.effects import Composition, EffectInputs
 
 
 @dataclass

@@ -33,16 +33,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from twin.effects import Composition, get_effect
 from twin.diagnosis.audit import audit
 from twin.diagnosis.calibrate import Calibration, calibrate
 from twin.diagnosis.language import finding_text
 from twin.diagnosis.linalg import heldout_sse
 from twin.diagnosis.noise import white_noise_sigma_from_differences
 from twin.diagnosis.problem import Problem, cv_folds
-from twin.diagnosis.screen import CandidateResult, candidate_names, refine_grid_value, screen
+from twin.diagnosis.screen import (
+    CandidateResult,
+    candidate_names,
+    refine_grid_value,
+    screen,
+)
 from twin.diagnosis.segments import residual_segments
 from twin.diagnosis.selection import assess_confidence, forward_selection
+from twin.effects import Composition, get_effect
 
 
 @dataclass

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.signal import lfilter
 
+from twin.arrays import run_slices
+
 
 @dataclass
 class BlockAverager:
@@ -25,8 +27,7 @@ class BlockAverager:
     def build(cls, run_index: np.ndarray, k: int) -> BlockAverager:
         k = max(1, int(k))
         run_index = np.asarray(run_index)
-        edges = np.r_[0, np.flatnonzero(np.diff(run_index)) + 1, run_index.size]
-        starts = np.concatenate([np.arange(a, b, k) for a, b in zip(edges[:-1], edges[1:])])
+        starts = np.concatenate([np.arange(s.start, s.stop, k) for s in run_slices(run_index)])
         ends = np.r_[starts[1:], run_index.size]
         return cls(starts, ends - starts, run_index[starts])
 
@@ -64,8 +65,8 @@ class ARModel:
         b = np.r_[1.0, -self.coefficients]
         x = np.asarray(x, float)
         out = np.empty_like(x)
-        edges = np.r_[0, np.flatnonzero(np.diff(run_index)) + 1, len(run_index)]
-        for a, z in zip(edges[:-1], edges[1:]):
+        for run in run_slices(run_index):
+            a, z = run.start, run.stop
             seg = x[a:z]
             out[a:z] = lfilter(b, [1.0], seg, axis=0)
             for t, (coef, s2) in enumerate(self.partial[: z - a]):
@@ -78,9 +79,8 @@ def _autocovariance(x: np.ndarray, run_index: np.ndarray, max_lag: int) -> np.nd
     """Pooled autocovariance over runs (each run demeaned), lags 0..max_lag."""
     acov = np.zeros(max_lag + 1)
     n_total = 0
-    edges = np.r_[0, np.flatnonzero(np.diff(run_index)) + 1, len(run_index)]
-    for a, z in zip(edges[:-1], edges[1:]):
-        seg = x[a:z] - x[a:z].mean()
+    for run in run_slices(run_index):
+        seg = x[run] - x[run].mean()
         n = seg.size
         if n <= max_lag + 1:
             continue

@@ -11,9 +11,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from twin.arrays import run_slices
+from twin.diagnosis.noise import BlockAverager
 from twin.effects import Composition, EffectInputs, get_effect
 from twin.measurement import Measurement
-from twin.diagnosis.noise import BlockAverager
 
 
 @dataclass
@@ -68,23 +69,6 @@ class Problem:
     @property
     def n(self) -> int:
         return int(self.y.size)
-
-
-def run_slices(run_index: np.ndarray) -> list[slice]:
-    """Contiguous stretches of equal run index.
-
-    Parameters
-    ----------
-    run_index : np.ndarray
-        Run of each sample.
-
-    Returns
-    -------
-    list[slice]
-        One slice per run, in sample order.
-    """
-    edges = np.r_[0, np.flatnonzero(np.diff(run_index)) + 1, len(run_index)]
-    return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
 
 
 def design_matrix(problem: Problem, comp: Composition, pinned: frozenset = frozenset()

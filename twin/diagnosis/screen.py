@@ -13,11 +13,11 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import minimize_scalar
 
-from twin.effects import REGISTRY, Composition, Effect, get_effect
 from twin.diagnosis.calibrate import Calibration
 from twin.diagnosis.linalg import heldout_errors, novelty, orthonormal_basis
 from twin.diagnosis.noise import fit_ar
 from twin.diagnosis.problem import DiagnosisConfig, Problem, cv_folds
+from twin.effects import REGISTRY, Composition, Effect, get_effect
 
 
 @dataclass

@@ -15,10 +15,10 @@ import numpy as np
 from scipy import stats
 from scipy.ndimage import uniform_filter1d
 
-from twin.effects import get_effect
 from twin.diagnosis.calibrate import Calibration
 from twin.diagnosis.problem import DiagnosisConfig, Problem
 from twin.diagnosis.screen import CandidateResult, is_testable, screen
+from twin.effects import get_effect
 
 
 class Pick(NamedTuple):

@@ -22,13 +22,14 @@ the measured temperature to the die temperature the other effects read.
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
 
+from twin.arrays import run_slices
 from twin.errors import ModelError
+from twin.text import did_you_mean
 
 
 @dataclass(frozen=True)
@@ -88,11 +89,7 @@ class EffectInputs:
 
     def run_slices(self) -> list[slice]:
         """Contiguous runs: stateful effects restart from equilibrium at each run's start."""
-        if self.run_index.size == 0:
-            return []
-        edges = np.flatnonzero(np.diff(self.run_index)) + 1
-        bounds = np.r_[0, edges, self.run_index.size]
-        return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        return run_slices(self.run_index)
 
     def per_run(self, fn, x: np.ndarray) -> np.ndarray:
         """Apply a causal filter ``fn(x_run)`` separately to each run."""
@@ -227,11 +224,6 @@ def register(cls: type[Effect]) -> type[Effect]:
         raise ModelError(f"an effect named {cls.name!r} is already registered (by {existing.__module__})")
     REGISTRY[cls.name] = cls
     return cls
-
-
-def did_you_mean(name: str, options) -> str:
-    close = difflib.get_close_matches(name, list(options), n=1)
-    return f"; did you mean {close[0]!r}?" if close else f"; valid: {', '.join(sorted(options))}"
 
 
 def get_effect(name: str) -> type[Effect]:

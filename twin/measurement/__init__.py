@@ -7,7 +7,18 @@ IMU instance (:func:`read_imu_logs`).
 """
 
 from twin.measurement.columns import ColumnMap
-from twin.measurement.core import STANDARD_GRAVITY, Measurement, MeasurementError, check, concatenate
+from twin.measurement.core import (
+    STANDARD_GRAVITY,
+    Measurement,
+    MeasurementError,
+    check,
+    concatenate,
+)
+from twin.measurement.dataflash import read_dataflash  # noqa: E402  (registers "dataflash")
+from twin.measurement.delimited import read_table, read_table_imu, write_canonical_csv  # noqa: E402
+
+# Reader modules register themselves on import (the text reader sniffs last: it has priority -1).
+from twin.measurement.hdf5 import from_dataset, read_dataset_blind  # noqa: E402  (registers "hdf5")
 from twin.measurement.imu import ImuLog, usable_for_calibration
 from twin.measurement.registry import (
     Reader,
@@ -20,12 +31,7 @@ from twin.measurement.registry import (
     register_reader,
     unregister_reader,
 )
-
-# Reader modules register themselves on import (the text reader sniffs last: it has priority -1).
-from twin.measurement.hdf5 import from_dataset, read_dataset_blind  # noqa: E402  (registers "hdf5")
 from twin.measurement.ulog import read_ulog  # noqa: E402  (registers "ulog")
-from twin.measurement.dataflash import read_dataflash  # noqa: E402  (registers "dataflash")
-from twin.measurement.delimited import read_table, read_table_imu, write_canonical_csv  # noqa: E402
 
 __all__ = ["STANDARD_GRAVITY", "ColumnMap", "ImuLog", "Measurement", "MeasurementError", "ReadOptions", "Reader",
            "check", "concatenate", "find_reader", "from_dataset", "load_measurements", "load_reader_plugin",

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.measurement.core import STANDARD_GRAVITY, MeasurementError
+from twin.text import did_you_mean
 
 TIME_FACTORS_S = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0, "h": 3600.0}
 OUTPUT_UNITS = ("g", "mg", "m/s^2", "m/s2", "digits")
@@ -65,11 +66,8 @@ class ColumnMap:
         known = set(cls.__dataclass_fields__)
         for key in data:
             if key not in known:
-                import difflib
-
-                close = difflib.get_close_matches(str(key), known, n=1)
-                hint = f"; did you mean {close[0]!r}?" if close else f"; valid keys: {', '.join(sorted(known))}"
-                raise MeasurementError(f"{p}: unknown column-map key {key!r}{hint}")
+                raise MeasurementError(f"{p}: unknown column-map key {key!r}"
+                                       f"{did_you_mean(key, known, label='valid keys')}")
         return cls(**data)
 
     def axis_columns(self) -> tuple[str | int, str | int, str | int] | None:

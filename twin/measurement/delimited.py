@@ -15,10 +15,17 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.measurement.columns import TIME_FACTORS_S, ColumnMap, convert_output, convert_temperature_c, time_factor_s
+from twin.measurement.columns import (
+    TIME_FACTORS_S,
+    ColumnMap,
+    convert_output,
+    convert_temperature_c,
+    time_factor_s,
+)
 from twin.measurement.core import Measurement, MeasurementError, check
 from twin.measurement.imu import ImuLog
 from twin.measurement.registry import ReadOptions, register_reader
+from twin.text import did_you_mean
 
 SUFFIXES = (".csv", ".tsv", ".txt", ".log", ".dat")
 
@@ -71,11 +78,8 @@ def _column(df, key, path: Path, role: str, required: bool):
     if key in df.columns:
         return df[key]
     if required:
-        import difflib
-
-        close = difflib.get_close_matches(str(key), list(df.columns), n=1)
-        hint = f"; did you mean {close[0]!r}?" if close else f"; columns are: {', '.join(df.columns)}"
-        raise MeasurementError(f"{path}: no {role} column {key!r}{hint}")
+        raise MeasurementError(f"{path}: no {role} column {key!r}"
+                               f"{did_you_mean(key, df.columns, label='columns are', sort=False)}")
     return None
 
 
