@@ -14,7 +14,7 @@ map of T can see the die lagging the thermometer, a rate feature can.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -32,7 +32,6 @@ class FeatureSet:
     delta: str = "reference"
     t0_c: float | None = None  # reference temperature; None = the first sample
     window_s: float = 35.0
-    _extra: tuple = field(default=(), repr=False)
 
     def __post_init__(self) -> None:
         for t in self.terms:

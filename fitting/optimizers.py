@@ -110,46 +110,48 @@ def _with_immigrants(rng, population: np.ndarray, share: float, lo, hi) -> np.nd
     return population
 
 
-class GA(PopulationOptimizer):
-    """Genetic algorithm: tournament selection, crossover, mutation, elitism.
+class GeneticOperators:
+    """One GA generation's variation: tournament selection, crossover and mutation.
 
-    ``encoding="real"``: blend (BLX-α) crossover and Gaussian mutation whose scale shrinks over the
-    run. ``encoding="binary"``: the paper's eq. (39) — each variable as ``n_bits`` bits on its
-    interval, single-point crossover, bit-flip mutation.
+    Built once per fit and shared by :class:`GA` and :class:`PSOGA` (composition, not a GA built
+    inside every PSO-GA step). ``encoding="real"``: blend (BLX-α) crossover and Gaussian mutation
+    whose scale shrinks with ``progress`` (0 at the start of the run, 1 at the budget).
+    ``encoding="binary"``: the paper's eq. (39) — each variable as ``n_bits`` Gray-coded bits on
+    its interval, single-point crossover, bit-flip mutation.
     """
 
-    def __init__(self, population_size=50, max_iter=100, crossover_rate=0.9, mutation_rate=0.1,
-                 mutation_scale=0.1, elite=2, immigrants=0.1, encoding="real", n_bits=24, target=None,
-                 tol_iter=None, random_state=None):
-        super().__init__(population_size, max_iter, target, tol_iter, random_state)
-        self.immigrants = immigrants
+    def __init__(self, crossover_rate=0.9, mutation_rate=0.1, mutation_scale=0.1, encoding="real", n_bits=24):
+        if encoding not in ("real", "binary"):
+            raise ValueError(f"encoding must be 'real' or 'binary', got {encoding!r}")
         self.crossover_rate = crossover_rate
         self.mutation_rate = mutation_rate
         self.mutation_scale = mutation_scale
-        self.elite = elite
         self.encoding = encoding
         self.n_bits = n_bits
 
-    def _tournament(self, rng, k=2):
-        idx = rng.integers(0, self.population_size, (self.population_size, k))
-        return idx[np.arange(self.population_size), np.argmin(self.pop_fit_[idx], axis=1)]
+    @staticmethod
+    def tournament(rng, fitness: np.ndarray, k: int = 2) -> np.ndarray:
+        """Indices of the winners of ``len(fitness)`` tournaments of ``k`` (lowest value wins)."""
+        n = fitness.shape[0]
+        idx = rng.integers(0, n, (n, k))
+        return idx[np.arange(n), np.argmin(fitness[idx], axis=1)]
 
-    def _offspring(self, rng, lo, hi) -> np.ndarray:
-        if self.encoding not in ("real", "binary"):
-            raise ValueError(f"encoding must be 'real' or 'binary', got {self.encoding!r}")
-        parents = self.pop_[self._tournament(rng)]
-        mates = parents[rng.permutation(self.population_size)]
+    def offspring(self, rng, population: np.ndarray, fitness: np.ndarray, lo, hi, progress: float) -> np.ndarray:
+        """Children of ``population`` (one per member), inside the box [lo, hi]."""
+        n = population.shape[0]
+        parents = population[self.tournament(rng, fitness)]
+        mates = parents[rng.permutation(n)]
         if self.encoding == "binary":
-            return self._binary_offspring(rng, parents, mates, lo, hi)
+            return self._binary(rng, parents, mates, lo, hi)
         alpha = 0.3
         u = rng.uniform(-alpha, 1 + alpha, parents.shape)
-        child = np.where(rng.random((self.population_size, 1)) < self.crossover_rate, parents + u * (mates - parents), parents)
-        progress = self.n_iter_ / max(1, self.max_iter)
+        child = np.where(rng.random((n, 1)) < self.crossover_rate, parents + u * (mates - parents), parents)
         scale = self.mutation_scale * (hi - lo) * (1 - progress) ** 2 + 1e-9 * (hi - lo)
         mutate = rng.random(child.shape) < self.mutation_rate
         return np.clip(child + mutate * rng.normal(0, 1, child.shape) * scale, lo, hi)
 
-    def _binary_offspring(self, rng, parents, mates, lo, hi):
+    def _binary(self, rng, parents, mates, lo, hi):
+        n = parents.shape[0]
         levels = 2**self.n_bits - 1
 
         def encode(x):  # eq. (39): x = lo + (hi − lo) · integer / (2^n − 1), integer Gray-coded
@@ -164,17 +166,40 @@ class GA(PopulationOptimizer):
                 ints ^= ints >> shift
                 shift *= 2
             return lo + (hi - lo) * ints / levels
-        a, b = encode(parents).reshape(self.population_size, -1), encode(mates).reshape(self.population_size, -1)
-        cut = rng.integers(1, a.shape[1], self.population_size)
+        a, b = encode(parents).reshape(n, -1), encode(mates).reshape(n, -1)
+        cut = rng.integers(1, a.shape[1], n)
         mask = np.arange(a.shape[1])[None, :] >= cut[:, None]
-        cross = rng.random((self.population_size, 1)) < self.crossover_rate
+        cross = rng.random((n, 1)) < self.crossover_rate
         child = np.where(cross & mask, b, a)
         flip = rng.random(child.shape) < self.mutation_rate / self.n_bits
         child = np.where(flip, 1 - child, child)
-        return decode(child.reshape(self.population_size, lo.size, self.n_bits))
+        return decode(child.reshape(n, lo.size, self.n_bits))
+
+
+class GA(PopulationOptimizer):
+    """Genetic algorithm: tournament selection, crossover, mutation (:class:`GeneticOperators`),
+    random immigrants, elitism. ``encoding`` ``"real"`` or ``"binary"`` (the paper's eq. 39)."""
+
+    def __init__(self, population_size=50, max_iter=100, crossover_rate=0.9, mutation_rate=0.1,
+                 mutation_scale=0.1, elite=2, immigrants=0.1, encoding="real", n_bits=24, target=None,
+                 tol_iter=None, random_state=None):
+        super().__init__(population_size, max_iter, target, tol_iter, random_state)
+        self.immigrants = immigrants
+        self.crossover_rate = crossover_rate
+        self.mutation_rate = mutation_rate
+        self.mutation_scale = mutation_scale
+        self.elite = elite
+        self.encoding = encoding
+        self.n_bits = n_bits
+
+    def _after_init(self, rng, lo, hi) -> None:
+        self.operators_ = GeneticOperators(self.crossover_rate, self.mutation_rate, self.mutation_scale,
+                                           self.encoding, self.n_bits)
 
     def _step(self, rng, lo, hi, f):
-        child = _with_immigrants(rng, self._offspring(rng, lo, hi), self.immigrants, lo, hi)
+        progress = self.n_iter_ / max(1, self.max_iter)
+        child = self.operators_.offspring(rng, self.pop_, self.pop_fit_, lo, hi, progress)
+        child = _with_immigrants(rng, child, self.immigrants, lo, hi)
         fit = self._evaluate(f, child)
         elite = np.argsort(self.pop_fit_)[: self.elite]
         worst = np.argsort(fit)[::-1][: self.elite]
@@ -254,9 +279,9 @@ class PSO(PopulationOptimizer):
 
 
 class PSOGA(PSO):
-    """The paper's hybrid: GA crossover and mutation, then PSO moves the offspring towards the
-    personal and global bests; one iteration = one GA generation + one PSO step (two population
-    evaluations)."""
+    """The paper's hybrid: GA crossover and mutation (the same :class:`GeneticOperators` as
+    :class:`GA`, built once per fit), then PSO moves the offspring towards the personal and global
+    bests; one iteration = one GA generation + one PSO step (two population evaluations)."""
 
     def __init__(self, population_size=50, max_iter=100, crossover_rate=0.9, mutation_rate=0.1,
                  mutation_scale=0.1, immigrants=0.1, w_start=0.9, w_end=0.4, c1=1.5, c2=1.5, max_velocity=0.2,
@@ -268,10 +293,14 @@ class PSOGA(PSO):
         self.mutation_rate = mutation_rate
         self.mutation_scale = mutation_scale
 
+    def _after_init(self, rng, lo, hi):
+        super()._after_init(rng, lo, hi)
+        self.operators_ = GeneticOperators(self.crossover_rate, self.mutation_rate, self.mutation_scale)
+
     def _step(self, rng, lo, hi, f):
-        ga = GA(self.population_size, self.max_iter, self.crossover_rate, self.mutation_rate, self.mutation_scale)
-        ga.pop_, ga.pop_fit_, ga.n_iter_ = self.pop_, self.pop_fit_, self.n_iter_
-        child = _with_immigrants(rng, ga._offspring(rng, lo, hi), self.immigrants, lo, hi)
+        progress = self.n_iter_ / max(1, self.max_iter)
+        child = self.operators_.offspring(rng, self.pop_, self.pop_fit_, lo, hi, progress)
+        child = _with_immigrants(rng, child, self.immigrants, lo, hi)
         child_fit = self._evaluate(f, child)
         keep = child_fit < self.pop_fit_  # offspring replace their parent position when better
         self.pop_ = np.where(keep[:, None], child, self.pop_)
@@ -280,7 +309,6 @@ class PSOGA(PSO):
         self._move(rng, lo, hi)
         self.pop_fit_ = self._evaluate(f, self.pop_)
         self._update_bests()
-
 
 
 def eq45(X: np.ndarray) -> np.ndarray:

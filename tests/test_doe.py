@@ -108,3 +108,71 @@ def test_runs_are_seeded_from_study_seed_and_index(tmp_path):
 def test_example_studies_validate(path):
     study, base, _ = load_study(path)
     assert len(plan(study, base)) <= study.max_runs
+
+
+def test_multi_run_compensated_ratio_tests_the_last_cycle_of_every_run(tmp_path):
+    """The DOE splits train/test as ``twin benchmark`` does: a sample's cycle is read from its time
+    within its run, so a study of two runs tests on the last cycle of each (not on all of run 2)."""
+    import numpy as np
+
+    from fitting import FeatureSet, PolynomialCompensator
+    from twin.model.scenario import parse_scenario
+    from twin.model.simulate import simulate
+    from twin.studies.doe import evaluate_run
+
+    text = STUDY.format(base=ROOT / "scenarios" / "hidden_aging.yaml").replace(
+        "program.cycles: {levels: [1, 2]}", "program.cycles: {levels: [2]}\n  test_plan.runs: {levels: [2]}").replace(
+        "[drift_pp_mg, chamber_hours, residual_rms_mg]", "[compensated_mse_ratio]").replace("replicates: 2", "")
+    study, base, _ = load_study(_study(tmp_path, text))
+    job = plan(study, base)[0]
+    rec = evaluate_run(job, study.responses)
+    assert rec["status"] == "ok", rec.get("error")
+    loaded = parse_scenario(job["yaml"], "<run>")
+    ds = simulate(loaded)
+    t, run = ds["time_s"], ds["test/run_index"].astype(int)
+    within = t - np.array([t[run == k].min() for k in range(2)])[run]
+    cycle = np.array([s.cycle for s in loaded.program.segments])[loaded.program.segment_index(within)]
+    test = cycle == 1
+    assert test[run == 0].any() and test[run == 1].any() and (~test[run == 1]).any()
+    X = FeatureSet(("T",)).transform(ds["temperature/thermometer_c"], t)
+    y = ds["output/output_g"] - ds["test/applied_g"]
+    err = y[test] - PolynomialCompensator(max_order=4).fit(X[~test], y[~test]).predict(X[test])
+    noise = ds["truth/noise_white_g"] + ds["truth/noise_bias_instability_g"] + ds["truth/quantisation_g"]
+    assert rec["responses"]["compensated_mse_ratio"] == float(np.var(err) / np.mean(noise[test] ** 2))
+
+
+def test_run_time_errors_exit_2_with_one_line(tmp_path):
+    """A folder whose runs.jsonl holds something else: the study stops at run time with one line."""
+    out = tmp_path / "doe"
+    out.mkdir()
+    (out / "runs.jsonl").write_text('{"note": "not a run"}\n')
+    r = run_cli("doe", str(_study(tmp_path)), "-o", str(out))
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.startswith("twin: error: ") and "runs.jsonl:1: not a run record" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+    target = tmp_path / "a_file"
+    target.write_text("")
+    r = run_cli("doe", str(_study(tmp_path)), "-o", str(target))
+    assert r.returncode == 2 and "must be a folder" in r.stderr and "Traceback" not in r.stderr
+
+
+SMALL = STUDY.replace("  program.cycles: {{levels: [1, 2]}}\n", "").replace("replicates: 2", "replicates: 1")
+
+
+def test_resume_after_a_torn_line_and_with_a_new_response(tmp_path):
+    """A record torn by a kill does not swallow the next one; a response added later is computed
+    for the runs finished without it."""
+    study = _study(tmp_path, SMALL.format(base=ROOT / "scenarios" / "hidden_aging.yaml").replace(
+        "[drift_pp_mg, chamber_hours, residual_rms_mg]", "[chamber_hours]"))
+    out = tmp_path / "doe"
+    out.mkdir()
+    (out / "runs.jsonl").write_text('{"key": "0123456789abcdef", "index": 0, "repl')  # torn, no newline
+    r = run_cli("doe", str(study), "-o", str(out), "--json", "-")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["runs"] == 2 and len(read_runs(out / "runs.jsonl")) == 2
+    study.write_text(study.read_text().replace("[chamber_hours]", "[chamber_hours, drift_pp_mg]"))
+    r = run_cli("doe", str(study), "-o", str(out), "--json", "-")
+    assert r.returncode == 0, r.stderr
+    rows = (out / "table.csv").read_text().splitlines()
+    assert rows[0].endswith("chamber_hours,drift_pp_mg,error") and len(rows) == 3
+    assert all(line.split(",")[-2] not in ("", "nan") for line in rows[1:])

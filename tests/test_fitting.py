@@ -155,12 +155,13 @@ def test_twin_benchmark_quick_json(tmp_path):
     assert (tmp_path / "rep" / "report.html").is_file()
 
 
-def test_benchmark_features_reference_the_training_data_for_every_model(monkeypatch):
+def test_benchmark_features_reference_the_training_data_for_every_model():
     """ΔT = T − T0 with T0 the first training temperature, for every model in turn (a timer once
     overwrote T0 after the first model, so later models saw a clock reading as T0)."""
     from dataclasses import replace
 
-    import twin.compensation.benchmark as tb
+    from twin.compensation.benchmark import evaluate_split
+    from twin.compensation.registry import COMPENSATORS, Compensator
     from twin.measurement import Measurement
 
     seen = {}
@@ -176,24 +177,68 @@ def test_benchmark_features_reference_the_training_data_for_every_model(monkeypa
         def predict(self, X):
             return np.zeros(len(X))
 
-    real = tb._models(True, 0)
-    monkeypatch.setattr(tb, "_models", lambda quick, seed: {n: (f, Recorder(n)) for n, (f, _) in real.items()})
-    monkeypatch.setattr(tb, "_twin_compensator", lambda loaded, train, test: np.zeros(test.time_s.size))
+    real = {name: entry.build(True, 0)[0] for name, entry in COMPENSATORS.items()}
+    recorders = [Compensator(name, name, lambda quick, seed, f=f, name=name: (f, Recorder(name)))
+                 for name, f in real.items()]
     t = np.arange(200.0)
     temp = 20.0 + 0.05 * t
     m = Measurement(t, temp, np.ones_like(t), np.ones_like(t), np.zeros(t.size, np.int16), np.zeros(t.size, bool),
                     True, ["<test>"])
-    tb._evaluate_split(None, True, 0, m, m, np.zeros(t.size))
-    assert set(seen) == set(real)
-    for name, (features, _) in real.items():
+    out, _, _ = evaluate_split(None, True, 0, m, m, np.zeros(t.size), compensators=recorders, physics_twin=False)
+    assert set(seen) == set(real) and list(out) == [*real, "noise_floor"]
+    for name, features in real.items():
         expected = replace(features, t0_c=20.0).transform(temp, t)
         np.testing.assert_array_equal(seen[name], expected, err_msg=name)
 
 
 def test_benchmark_verdicts_call_sub_threshold_differences_level():
-    from twin.compensation.benchmark import TIE_PERCENT, _compare
+    from twin.compensation.benchmark import TIE_PERCENT, verdict
 
     mse = {"a": 1.0, "b": 1.0 + 0.5 * TIE_PERCENT / 100, "c": 1.05}
-    assert "are level" in _compare("a", "b", mse, "A", "B")
-    assert "A beats C" in _compare("a", "c", mse, "A", "C") and "(4.8 % lower)" in _compare("a", "c", mse, "A", "C")
-    assert "does NOT beat" in _compare("c", "a", mse, "C", "A")
+    assert "are level" in verdict("a", "b", mse, "A", "B")
+    assert "A beats C" in verdict("a", "c", mse, "A", "C") and "(4.8 % lower)" in verdict("a", "c", mse, "A", "C")
+    assert "does NOT beat" in verdict("c", "a", mse, "C", "A")
+
+
+def test_psoga_composes_its_ga_operators_once(monkeypatch):
+    """PSO-GA builds its GA operators once per fit and builds no GA (nor calls a GA's private
+    method) inside its steps; GA uses the same operators."""
+    import fitting.optimizers as fo
+
+    def no_ga(*args, **kwargs):
+        raise AssertionError("PSO-GA built a GA")
+
+    monkeypatch.setattr(fo.GA, "__init__", no_ga)
+    ids = []
+    o = PSOGA(population_size=10, max_iter=5, random_state=0).fit(eq45, EQ45_BOUNDS,
+                                                                   callback=lambda s: ids.append(id(s.operators_)))
+    assert len(ids) == 5 and len(set(ids)) == 1 and isinstance(o.operators_, fo.GeneticOperators)
+    monkeypatch.undo()
+    g = GA(population_size=10, max_iter=3, encoding="binary", random_state=0).fit(eq45, EQ45_BOUNDS)
+    assert g.operators_.encoding == "binary" and not hasattr(g, "_offspring")
+
+
+def test_feature_set_has_only_its_documented_fields():
+    from dataclasses import fields
+
+    assert [f.name for f in fields(FeatureSet)] == ["terms", "delta", "t0_c", "window_s"]
+
+
+def test_benchmark_run_time_errors_exit_2_with_one_line(tmp_path, paper_path):
+    """A scenario that loads but cannot be split (it never exceeds 30 °C, so the extrapolation
+    split has no test data): one line and exit 2, before any model is trained."""
+    import yaml
+
+    from conftest import run_cli
+
+    data = yaml.safe_load(paper_path.read_text())
+    data["program"] = {"start_c": -20.0, "cycles": 2, "steps": [
+        {"type": "hold", "dwell_s": 600}, {"type": "staircase", "target_c": 20.0, "step_c": 0.4, "step_s": 35},
+        {"type": "hold", "dwell_s": 600}, {"type": "staircase", "target_c": -20.0, "step_c": 0.4, "step_s": 35}]}
+    data["test_plan"]["logger_rate_hz"] = 0.1
+    cold = tmp_path / "cold.yaml"
+    cold.write_text(yaml.safe_dump(data))
+    r = run_cli("benchmark", str(cold), "--seeds", "1")
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.startswith("twin: error: ") and "extrapolation split" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1

@@ -1,1 +1,2 @@
-"""Compensation: the paper's compensation benchmark on data whose truth is known, and its report."""
+"""Compensation: the compensator registry (:mod:`~twin.compensation.registry`), the paper's
+compensation benchmark on data whose truth is known, its splits and its report."""

@@ -5,6 +5,10 @@ last cycle (the paper's set-up); an extrapolation split (train ≤ 30 °C, test 
 different-ramp-rate split (train on the scenario, test on the same device with twice the ramp
 rate). Every MSE is of the compensated output against the true acceleration, and is also given as
 a ratio to the noise floor (the MSE of the sensor noise alone: what a perfect compensator leaves).
+
+The compensators are the registered ones (:mod:`twin.compensation.registry`, in registration
+order), then the calibrated physics twin (:mod:`twin.compensation.physics_twin`) as the reference.
+The cycle split is :func:`twin.compensation.splits.last_cycle_test`, shared with the DOE studies.
 """
 
 from __future__ import annotations
@@ -15,15 +19,23 @@ from dataclasses import replace
 import numpy as np
 import yaml
 
-from fitting import BPNN, CONVENTIONAL, EXTENSION, PAPER, EvolvedBPNN, FeatureSet, PolynomialCompensator
+from fitting import EvolvedBPNN
 from fitting.optimizers import EQ45_BOUNDS, EQ45_MINIMUM, GA, PSO, PSOGA, eq45
-from twin.diagnosis.diagnose import DiagnosisConfig, Problem, calibrate
-from twin.effects import Composition, get_effect
+from twin.compensation.physics_twin import twin_compensation
+from twin.compensation.registry import COMPENSATORS, Compensator
+from twin.compensation.splits import last_cycle_test, subset
+from twin.errors import TwinError
 from twin.measurement import from_dataset
 from twin.model.scenario import LoadedScenario, parse_scenario
 from twin.model.simulate import simulate
 
 TABLE2_ITERATIONS = (14, 28, 42, 56, 70)
+#: the extrapolation split trains at or below this temperature and tests above it [°C]
+EXTRAPOLATION_SPLIT_C = 30.0
+
+
+class BenchmarkError(TwinError):
+    """A benchmark that cannot be run on the given scenario."""
 
 
 def _variant(loaded: LoadedScenario, seed: int, rate_hz: float | None, ramp_factor: float = 1.0) -> LoadedScenario:
@@ -41,56 +53,24 @@ def _variant(loaded: LoadedScenario, seed: int, rate_hz: float | None, ramp_fact
 
 
 def _dataset(loaded: LoadedScenario):
+    """The simulated dataset, its blind measurement and the sensor noise (what no compensator removes)."""
     ds = simulate(loaded)
-    t = ds["time_s"]
-    cycle = np.array([s.cycle for s in loaded.program.segments])[loaded.program.segment_index(t % (loaded.program.duration_s + 1e-9))]
     noise = ds["truth/noise_white_g"] + ds["truth/noise_bias_instability_g"] + ds["truth/quantisation_g"]
-    return ds, cycle, noise
+    return ds, from_dataset(ds), noise
 
 
-def _models(quick: bool, seed: int) -> dict:
-    gens = 20 if quick else 70
-    pop = 20 if quick else 50
-    stride = 4 if quick else 1
-    bp = 100 if quick else 200
-    net = dict(hidden_size=10, activation="tanh", random_state=seed)
-    return {
-        "conventional": (CONVENTIONAL, BPNN(max_iter=bp, **net)),
-        "model1": (PAPER, BPNN(max_iter=bp, **net)),
-        "model2_ga": (PAPER, EvolvedBPNN("ga", gens, pop, bp_iter=bp, sample_stride=stride, **net)),
-        "model3_psoga": (PAPER, EvolvedBPNN("psoga", gens, pop, bp_iter=bp, sample_stride=stride, **net)),
-        "polynomial_T": (FeatureSet(("T",)), PolynomialCompensator(max_order=6)),
-        "extension_bpnn_dTdt": (EXTENSION, BPNN(max_iter=bp, **net)),
-    }
-
-
-def _twin_compensator(loaded: LoadedScenario, train, test) -> np.ndarray:
-    """The calibrated physics twin (its effects + a thermal lag) predicting the test drift."""
-    names = list(dict.fromkeys(loaded.scenario.twin.effects + ["thermal_lag"]))
-    ctx = {"geometry": loaded.geometry()}
-    comp = Composition([get_effect(n)(ctx) for n in names])
-    cfg = DiagnosisConfig()
-    cal = calibrate(Problem(train, cfg), comp)
-    p_test = Problem(test, cfg)
-    inputs = cal.composition.with_die_temperature(p_test.inputs)
-    drift = sum((np.broadcast_to(e.contribution(inputs).output_g(p_test.applied), (p_test.n,))
-                 for e in cal.composition.drift_effects), np.zeros(p_test.n))
-    offset = float(cal.beta[Problem(train, cfg).nuisance_names.index("offset_run0")])
-    return drift + offset
-
-
-def _subset(m, mask):
-    return replace(m, time_s=m.time_s[mask], temperature_c=m.temperature_c[mask], output_g=m.output_g[mask],
-                   applied_g=m.applied_g[mask], run_index=m.run_index[mask], power_on=m.power_on[mask])
-
-
-def _evaluate_split(loaded, quick, seed, train_m, test_m, noise_test, record_history=False):
-    """MSE of the compensated test output for every model; histories of the population searches."""
+def evaluate_split(loaded, quick, seed, train_m, test_m, noise_test, record_history=False,
+                   compensators: list[Compensator] | None = None, physics_twin: bool = True):
+    """MSE of the compensated test output for every compensator (default: every registered one,
+    in registration order) and the calibrated physics twin; histories of the population searches;
+    fit times."""
     y_train = train_m.output_g - train_m.applied_g
     truth_test = test_m.applied_g
     out, hist, extra = {}, {}, {}
     t_ref_c = float(train_m.temperature_c[0])  # ΔT's reference is fixed by the training data
-    for name, (features, model) in _models(quick, seed).items():
+    for entry in compensators if compensators is not None else list(COMPENSATORS.values()):
+        features, model = entry.build(quick, seed)
+        name = entry.name
         features = replace(features, t0_c=t_ref_c)
         Xtr = features.transform(train_m.temperature_c, train_m.time_s)
         Xte = features.transform(test_m.temperature_c, test_m.time_s)
@@ -104,12 +84,19 @@ def _evaluate_split(loaded, quick, seed, train_m, test_m, noise_test, record_his
             scale = float(np.std(y_train)) ** 2
             hist[name] = {"mse_g2_by_iteration": [h * scale for h in model.history_],
                           "fitness_evaluations": model.n_evaluations_, "bp_iterations": model.network_.n_iter_}
-    start = time.perf_counter()
-    pred = _twin_compensator(loaded, train_m, test_m)
-    out["physics_twin"] = float(np.mean((test_m.output_g - pred - truth_test) ** 2))
-    extra["physics_twin"] = {"fit_s": time.perf_counter() - start}
+    if physics_twin:
+        start = time.perf_counter()
+        pred = twin_compensation(loaded, train_m, test_m)
+        out["physics_twin"] = float(np.mean((test_m.output_g - pred - truth_test) ** 2))
+        extra["physics_twin"] = {"fit_s": time.perf_counter() - start}
     out["noise_floor"] = float(np.mean(noise_test**2))
     return out, hist, extra
+
+
+def _check_split(name: str, train, test, loaded: LoadedScenario, what: str) -> None:
+    if not (train.any() and test.any()):
+        raise BenchmarkError(f"{loaded.path}: the {name} split needs {what}; this scenario has "
+                             f"{int(train.sum())} training and {int(test.sum())} test samples")
 
 
 def optimizer_benchmark(seeds: int = 20) -> dict:
@@ -132,6 +119,8 @@ def optimizer_benchmark(seeds: int = 20) -> dict:
 
 
 def run_benchmark(loaded: LoadedScenario, seeds: int = 3, quick: bool = False, progress=None) -> dict:
+    """Tests 1..``seeds``, the extrapolation and the ramp-rate split (on Test 1's device); raises
+    :class:`BenchmarkError` when the scenario cannot be split that way."""
     tick = progress or (lambda msg: None)
     rate = 1.0 if quick else None
     tests, table2, timings, extrap, ramp = [], {}, {}, [], []
@@ -139,26 +128,27 @@ def run_benchmark(loaded: LoadedScenario, seeds: int = 3, quick: bool = False, p
         seed = loaded.scenario.seed + k
         tick(f"test {k + 1}/{seeds}: simulate")
         scn = _variant(loaded, seed, rate)
-        ds, cycle, noise = _dataset(scn)
-        m = from_dataset(ds)
-        last = cycle.max()
-        train = cycle < last if last > 0 else np.arange(len(m)) < 2 * len(m) // 3
+        ds, m, noise = _dataset(scn)
+        train = ~last_cycle_test(scn.program, m.time_s, m.run_index)
+        hot = m.temperature_c > EXTRAPOLATION_SPLIT_C
+        if k == 0:  # before any training: a scenario that cannot be split fails at once
+            _check_split("extrapolation", ~hot, hot, loaded,
+                         f"readings both at or below and above {EXTRAPOLATION_SPLIT_C:g} °C")
         tick(f"test {k + 1}/{seeds}: train and test the models")
-        res, hist, extra = _evaluate_split(scn, quick, seed, _subset(m, train), _subset(m, ~train), noise[~train],
-                                           record_history=True)
+        res, hist, extra = evaluate_split(scn, quick, seed, subset(m, train), subset(m, ~train), noise[~train],
+                                          record_history=True)
         tests.append(res)
         timings[f"test{k + 1}"] = extra
         for name, h in hist.items():
             table2.setdefault(name, []).append(h)
         if k == 0:
             tick("extrapolation split")
-            hot = m.temperature_c > 30.0
-            e, _, _ = _evaluate_split(scn, quick, seed, _subset(m, ~hot), _subset(m, hot), noise[hot])
+            e, _, _ = evaluate_split(scn, quick, seed, subset(m, ~hot), subset(m, hot), noise[hot])
             extrap.append(e)
             tick("ramp-rate split")
             fast = _variant(loaded, seed + 1000, rate, ramp_factor=2.0)
-            ds2, _, noise2 = _dataset(fast)
-            r, _, _ = _evaluate_split(scn, quick, seed, m, from_dataset(ds2), noise2)
+            _, m2, noise2 = _dataset(fast)
+            r, _, _ = evaluate_split(scn, quick, seed, m, m2, noise2)
             ramp.append(r)
     return _tables(tests, table2, extrap, ramp, timings, quick)
 
@@ -187,11 +177,11 @@ def _tables(tests, table2, extrap, ramp, timings, quick) -> dict:
     mean = {r["model"]: r["mse_mean"] for r in rows}
     floor = float(np.mean([t["noise_floor"] for t in tests]))
     verdicts = [
-        _compare("model3_psoga", "model2_ga", mean, "PSO-GA-BPNN", "GA-BPNN"),
-        _compare("model2_ga", "model1", mean, "GA-BPNN", "the plain BPNN with the same features (Model 1)"),
-        _compare("model1", "conventional", mean, "Model 1 (T, T², ΔT, ΔT²)", "the conventional model (ΔT, ΔT²)"),
-        _compare("model3_psoga", "polynomial_T", mean, "PSO-GA-BPNN", "a polynomial in T (order by validation)"),
-        _compare("extension_bpnn_dTdt", "model3_psoga", mean, "our extension (paper features + dT/dt)", "PSO-GA-BPNN"),
+        verdict("model3_psoga", "model2_ga", mean, "PSO-GA-BPNN", "GA-BPNN"),
+        verdict("model2_ga", "model1", mean, "GA-BPNN", "the plain BPNN with the same features (Model 1)"),
+        verdict("model1", "conventional", mean, "Model 1 (T, T², ΔT, ΔT²)", "the conventional model (ΔT, ΔT²)"),
+        verdict("model3_psoga", "polynomial_T", mean, "PSO-GA-BPNN", "a polynomial in T (order by validation)"),
+        verdict("extension_bpnn_dTdt", "model3_psoga", mean, "our extension (paper features + dT/dt)", "PSO-GA-BPNN"),
         f"Noise floor {floor:.3e} g²: extension at {mean['extension_bpnn_dTdt'] / floor:.3f}×, physics twin at "
         f"{mean['physics_twin'] / floor:.3f}×, PSO-GA-BPNN at {mean['model3_psoga'] / floor:.3f}× the floor.",
     ]
@@ -213,7 +203,9 @@ def _tables(tests, table2, extrap, ramp, timings, quick) -> dict:
 TIE_PERCENT = 0.1
 
 
-def _compare(a: str, b: str, mean: dict, la: str, lb: str) -> str:
+def verdict(a: str, b: str, mean: dict, la: str, lb: str) -> str:
+    """One sentence comparing the mean MSEs of compensators ``a`` and ``b`` (labels ``la``, ``lb``):
+    level below :data:`TIE_PERCENT`, else which beats which and by how much."""
     d = (mean[b] - mean[a]) / mean[b] * 100
     if abs(d) < TIE_PERCENT:
         return (f"{la} and {lb} are level: MSE {mean[a]:.3e} vs {mean[b]:.3e} g² ({abs(d):.2f} % apart, "

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from twin.io import atomic_write_text
-from twin.reporting.compare_report import _png
+from twin.reporting.plots import png_base64
 
 
 def write_benchmark_report(directory: Path, result: dict) -> Path:
@@ -26,7 +26,7 @@ def write_benchmark_report(directory: Path, result: dict) -> Path:
     ax.tick_params(axis="x", rotation=30)
     ax.set_ylim(min(0.98, min(r["ratio_mean"] for r in rows) * 0.99), None)
     ax.legend()
-    figs.append(("Table 1 as a ratio to the noise floor (mean over tests)", _png(fig)))
+    figs.append(("Table 1 as a ratio to the noise floor (mean over tests)", png_base64(fig)))
     fig, ax = plt.subplots(figsize=(7, 3.8))
     for name, t in result["table2"].items():
         its = sorted(int(k) for k in t["mse_g2_at_iteration"])
@@ -36,7 +36,7 @@ def write_benchmark_report(directory: Path, result: dict) -> Path:
     ax.set_xlabel("iteration (GA generation / PSO-GA step)")
     ax.set_ylabel("training MSE of the search winner [g²]")
     ax.legend(fontsize=8)
-    figs.append(("Table 2: MSE vs iteration before back-propagation", _png(fig)))
+    figs.append(("Table 2: MSE vs iteration before back-propagation", png_base64(fig)))
     for label, split in (("extrapolation split (train ≤ 30 °C, test > 30 °C)", result.get("extrapolation_split")),
                          ("ramp-rate split (test at twice the ramp rate)", result.get("ramp_rate_split"))):
         if not split:
@@ -48,7 +48,7 @@ def write_benchmark_report(directory: Path, result: dict) -> Path:
         ax.set_yscale("log")
         ax.set_ylabel("MSE / noise floor")
         ax.tick_params(axis="x", rotation=30)
-        figs.append((label, _png(fig)))
+        figs.append((label, png_base64(fig)))
     body = "".join(f"<h3>{html.escape(t)}</h3><img src='data:image/png;base64,{b}'>" for t, b in figs)
     verdicts = "".join(f"<li>{html.escape(v)}</li>" for v in result["verdicts"])
     page = (f"<!doctype html><html><head><meta charset='utf-8'><title>twin benchmark</title></head><body "

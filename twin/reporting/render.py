@@ -105,24 +105,25 @@ def render_sweep(geometry: CombGeometry, temperatures_c: np.ndarray, path: str |
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp{path.suffix}")
-    p = _plotter()
     try:
-        _deform(meshes, geometry, temps[0], acceleration_g, reading, exaggeration)
-        _draw(p, meshes, [0.0, max(peak, 1e-6)], _title(temps[0], exaggeration, reading, acceleration_g))
-        if path.suffix.lower() == ".mp4":
-            p.open_movie(str(tmp), framerate=4)
-        else:
-            p.open_gif(str(tmp), fps=4)
-        for t in temps:
-            _deform(meshes, geometry, t, acceleration_g, reading, exaggeration)
-            p.add_text(_title(t, exaggeration, reading, acceleration_g), font_size=11, color="black", name="title")
-            p.write_frame()
-            if progress:
-                progress(t)
-        p.close()
+        p = _plotter()
+        try:
+            _deform(meshes, geometry, temps[0], acceleration_g, reading, exaggeration)
+            _draw(p, meshes, [0.0, max(peak, 1e-6)], _title(temps[0], exaggeration, reading, acceleration_g))
+            if path.suffix.lower() == ".mp4":
+                p.open_movie(str(tmp), framerate=4)
+            else:
+                p.open_gif(str(tmp), fps=4)
+            for t in temps:
+                _deform(meshes, geometry, t, acceleration_g, reading, exaggeration)
+                p.add_text(_title(t, exaggeration, reading, acceleration_g), font_size=11, color="black", name="title")
+                p.write_frame()
+                if progress:
+                    progress(t)
+        finally:
+            p.close()  # once: closing also finishes the GIF/MP4 writer, so it precedes the move
         os.replace(tmp, path)
     finally:
-        p.close()
         tmp.unlink(missing_ok=True)
     return path
 

@@ -1,0 +1,92 @@
+"""Registry of the benchmark's compensators: ``@register_compensator(name, label)`` on a factory.
+
+A factory takes ``(quick, seed)`` — the benchmark's short budget flag and the test's seed — and
+returns ``(features, estimator)``: a :class:`fitting.FeatureSet` (its ΔT reference is set from the
+training data by the benchmark) and an unfitted scikit-learn-style regressor (``fit(X, y)``
+returns the estimator, ``predict(X)`` gives one value per row) that predicts the drift
+``output − applied`` [g] from the features. The benchmark builds and trains every registered
+compensator in registration order; the built-in ones are the paper's models
+(:mod:`twin.compensation.paper_models`). A user's module registers more with :func:`load_plugin`
+(``twin benchmark --plugin PATH``); loading a plugin runs its code.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from twin.errors import TwinError
+from twin.plugins import import_plugin
+from twin.text import did_you_mean
+
+
+class CompensatorError(TwinError):
+    """A compensator that cannot be found, registered or built."""
+
+
+@dataclass(frozen=True)
+class Compensator:
+    """A registered compensator: its name (the benchmark's key), a label for people, its factory."""
+
+    name: str
+    label: str
+    factory: Callable[[bool, int], tuple]
+
+    def build(self, quick: bool, seed: int) -> tuple:
+        """``(features, estimator)`` for one test, checked."""
+        from fitting import FeatureSet
+
+        made = self.factory(quick, seed)
+        if not (isinstance(made, tuple) and len(made) == 2 and isinstance(made[0], FeatureSet)):
+            raise CompensatorError(f"compensator {self.name!r}: its factory must return (FeatureSet, estimator), "
+                                   f"got {type(made).__name__}")
+        if not all(callable(getattr(made[1], m, None)) for m in ("fit", "predict")):
+            raise CompensatorError(f"compensator {self.name!r}: {type(made[1]).__name__} has no fit/predict")
+        return made
+
+    def describe(self) -> dict:
+        return {"name": self.name, "label": self.label, "module": self.factory.__module__}
+
+
+#: name → compensator, in registration order (the benchmark's order)
+COMPENSATORS: dict[str, Compensator] = {}
+
+
+def register_compensator(name: str, label: str):
+    """Decorator: register ``factory(quick, seed) -> (FeatureSet, estimator)`` under ``name``."""
+    if not (isinstance(name, str) and name.isidentifier()):
+        raise CompensatorError(f"a compensator name must be an identifier, got {name!r}")
+    if name in ("physics_twin", "noise_floor"):
+        raise CompensatorError(f"{name!r} is a reserved benchmark key")
+
+    def decorate(factory):
+        existing = COMPENSATORS.get(name)
+        if existing is not None and (existing.factory.__module__, existing.factory.__qualname__) != \
+                (factory.__module__, factory.__qualname__):
+            raise CompensatorError(f"a compensator named {name!r} is already registered (by {existing.factory.__module__})")
+        COMPENSATORS[name] = Compensator(name, label, factory)
+        return factory
+
+    return decorate
+
+
+def get_compensator(name: str) -> Compensator:
+    """The registered compensator ``name``; unknown names get "did you mean"."""
+    try:
+        return COMPENSATORS[name]
+    except KeyError:
+        raise CompensatorError(f"unknown compensator {name!r}{did_you_mean(name, COMPENSATORS)}") from None
+
+
+def load_plugin(spec: str, base_dir: str | Path = ".") -> list[str]:
+    """Import a compensator module (a ``.py`` path relative to ``base_dir``, or a module name);
+    the names it registered. Runs the user's code."""
+    before = set(COMPENSATORS)
+    import_plugin(spec, base_dir, error=CompensatorError)
+    return [n for n in COMPENSATORS if n not in before]
+
+
+# The built-in compensators, registered in the benchmark's order (after the names above exist:
+# paper_models imports register_compensator from this module).
+from twin.compensation import paper_models  # noqa: E402, F401

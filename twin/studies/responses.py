@@ -1,0 +1,161 @@
+"""Registry of DOE responses: ``@register_response(name, description=..., unit=...)`` on a function.
+
+A response is a function of one run's :class:`RunContext` returning a number (stored as a float)
+or a string. The context computes the simulated dataset, the blind measurement, the diagnosis
+and the rest on first use and shares them between the responses of the run, so a response pays
+only for what it reads. The built-in responses are in :mod:`twin.studies.standard_responses`; a
+study's ``plugins:`` key (or :func:`load_plugin`) registers more. Loading a plugin runs its code.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from twin.errors import TwinError
+from twin.plugins import import_plugin
+from twin.text import did_you_mean
+
+
+class ResponseError(TwinError):
+    """A response that cannot be found, registered or evaluated."""
+
+
+class RunContext:
+    """What a response may read about one run; each item is computed on first use, once.
+
+    ``loaded`` (the resolved :class:`~twin.model.scenario.LoadedScenario`), ``scenario``,
+    ``program``, ``job`` (index, replicate, point, seed), ``dataset`` (the simulated dataset, truth
+    included), ``measurement`` (its logged columns only: what a lab would have), ``diagnosis``
+    (``twin compare``'s result on the blind measurement), ``noise_g`` (the sensor noise, which no
+    compensator removes), ``hidden_family`` (the family of the effect the twin lacks, or None),
+    ``test_mask`` (the last cycle of every run: the split ``twin benchmark`` uses).
+    """
+
+    def __init__(self, loaded, job: dict | None = None):
+        self.loaded = loaded
+        self.job = job or {}
+
+    @property
+    def scenario(self):
+        return self.loaded.scenario
+
+    @property
+    def program(self):
+        return self.loaded.program
+
+    @cached_property
+    def dataset(self):
+        from twin.model.simulate import simulate
+
+        return simulate(self.loaded)
+
+    @cached_property
+    def measurement(self):
+        from twin.measurement import from_dataset
+
+        return from_dataset(self.dataset)  # blind: the logged columns only
+
+    @cached_property
+    def diagnosis(self) -> dict:
+        from twin.diagnosis.compare import compare_measurement
+
+        return compare_measurement(self.loaded, self.measurement, [])[1]
+
+    @cached_property
+    def noise_g(self) -> np.ndarray:
+        ds = self.dataset
+        return ds["truth/noise_white_g"] + ds["truth/noise_bias_instability_g"] + ds["truth/quantisation_g"]
+
+    @cached_property
+    def hidden_family(self) -> str | None:
+        """The first of ``device.effects`` missing from ``twin.effects``, or the thermal lag when
+        the thermometer is off the die and the twin has no ``thermal_lag``."""
+        from twin.effects import REGISTRY
+
+        scn = self.scenario
+        hidden = [n for n in scn.device.effects if n not in scn.twin.effects]
+        if hidden:
+            return REGISTRY[hidden[0]].family
+        th = scn.chamber.thermometer
+        if (th.attached_to != "die" or th.tau_s > 0) and "thermal_lag" not in scn.twin.effects:
+            return "thermal_lag"
+        return None
+
+    @cached_property
+    def test_mask(self) -> np.ndarray:
+        from twin.compensation.splits import last_cycle_test
+
+        ds = self.dataset
+        return last_cycle_test(self.program, ds["time_s"], ds["test/run_index"])
+
+
+@dataclass(frozen=True)
+class Response:
+    """A registered response: name, what it measures, its unit, and its function."""
+
+    name: str
+    description: str
+    unit: str
+    function: Callable[[RunContext], float | str]
+
+    def evaluate(self, run: RunContext) -> float | str:
+        """The response of one run: a float, or a string as returned."""
+        value = self.function(run)
+        if isinstance(value, str):
+            return value
+        if isinstance(value, (bool, int, float, np.integer, np.floating)) or \
+                (isinstance(value, np.ndarray) and value.shape == ()):
+            return float(value)
+        raise ResponseError(f"response {self.name!r} returned {type(value).__name__}; a response returns a number "
+                            f"or a string")
+
+    def describe(self) -> dict:
+        return {"name": self.name, "description": self.description, "unit": self.unit,
+                "module": self.function.__module__}
+
+
+#: name → response, in registration order
+RESPONSES: dict[str, Response] = {}
+
+
+def register_response(name: str, *, description: str, unit: str = ""):
+    """Decorator: register ``function(run: RunContext) -> float | str`` as the response ``name``."""
+    if not (isinstance(name, str) and name.isidentifier()):
+        raise ResponseError(f"a response name must be an identifier, got {name!r}")
+    if not (isinstance(description, str) and description.strip()):
+        raise ResponseError(f"response {name!r} needs a description")
+
+    def decorate(function):
+        existing = RESPONSES.get(name)
+        if existing is not None and (existing.function.__module__, existing.function.__qualname__) != \
+                (function.__module__, function.__qualname__):
+            raise ResponseError(f"a response named {name!r} is already registered (by {existing.function.__module__})")
+        RESPONSES[name] = Response(name, description, unit, function)
+        return function
+
+    return decorate
+
+
+def get_response(name: str) -> Response:
+    """The registered response ``name``; unknown names get "did you mean"."""
+    try:
+        return RESPONSES[name]
+    except KeyError:
+        raise ResponseError(f"unknown response {name!r}{did_you_mean(name, RESPONSES)}") from None
+
+
+def load_plugin(spec: str, base_dir: str | Path = ".") -> list[str]:
+    """Import a response module (a ``.py`` path relative to ``base_dir``, or a module name); the
+    names it registered. Runs the user's code."""
+    before = set(RESPONSES)
+    import_plugin(spec, base_dir, error=ResponseError)
+    return [n for n in RESPONSES if n not in before]
+
+
+# The built-in responses (after the names above exist: standard_responses imports them).
+from twin.studies import standard_responses  # noqa: E402, F401

@@ -1,0 +1,167 @@
+"""A study file: its schema (:class:`Study`), factor paths, and :func:`load_study`."""
+
+from __future__ import annotations
+
+import difflib
+from pathlib import Path
+from typing import Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from twin.errors import ScenarioError, TwinError
+from twin.text import format_path, load_yaml_mapping, where
+from twin.studies.design import design_points
+from twin.studies.responses import get_response, load_plugin
+
+
+class StudyError(TwinError):
+    """A study that cannot be run or resumed (its files, not its YAML)."""
+
+
+class FactorSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    range: list[float] | None = Field(None, min_length=2, max_length=2, description="[low, high]")
+    levels: list[int | float | str] | None = Field(None, min_length=1, description="explicit levels")
+    log: bool = Field(False, description="sample the range on a log scale")
+
+    @model_validator(mode="after")
+    def _one(self) -> FactorSpec:
+        if (self.range is None) == (self.levels is None):
+            raise ValueError("give either range: [low, high] or levels: [...]")
+        if self.range is not None and not self.range[0] < self.range[1]:
+            raise ValueError(f"empty range {self.range}: need low < high")
+        if self.log and self.range is not None and self.range[0] <= 0:
+            raise ValueError("a log range needs low > 0")
+        return self
+
+
+class DesignSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    type: Literal["full_factorial", "latin_hypercube", "sobol", "saltelli"] = "full_factorial"
+    points: int = Field(8, ge=1, description="samples (LHS/Sobol) or base samples N (Saltelli: N(d+2) runs)")
+    levels: int = Field(3, ge=2, description="levels per ranged factor in a full factorial")
+
+
+class Study(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    name: str = ""
+    description: str = ""
+    base: str = Field(description="base scenario YAML, relative to the study file")
+    seed: int = Field(0, ge=0)
+    factors: dict[str, FactorSpec] = Field(min_length=1)
+    design: DesignSpec = DesignSpec()
+    replicates: int = Field(1, ge=1)
+    responses: list[str] = Field(min_length=1)
+    max_runs: int = Field(500, ge=1, description="refuse designs larger than this")
+    logger_rate_hz: float | None = Field(None, gt=0, description="override the base logger rate (faster studies)")
+    plugins: list[str] = Field(default_factory=list, description="response modules (.py relative to the study, or "
+                               "module names) to load before the responses are looked up; runs their code")
+
+
+def _leaf_paths(data, prefix="") -> list[str]:
+    out = []
+    if isinstance(data, dict):
+        for k, v in data.items():
+            p = f"{prefix}.{k}" if prefix else str(k)
+            out.append(p)
+            out += _leaf_paths(v, p)
+    elif isinstance(data, list):
+        for i, v in enumerate(data):
+            p = f"{prefix}.{i}"
+            out.append(p)
+            out += _leaf_paths(v, p)
+    return out
+
+
+def _schema_paths() -> list[str]:
+    """Every settable dotted path of a scenario, from the schema (for "did you mean")."""
+    import typing
+
+    from twin.model.scenario import Scenario
+
+    paths = []
+
+    def walk(model, prefix):
+        for name, f in model.model_fields.items():
+            p = f"{prefix}.{name}" if prefix else name
+            paths.append(p)
+            for t in [f.annotation, *typing.get_args(f.annotation)]:
+                for tt in [t, *typing.get_args(t)]:
+                    if isinstance(tt, type) and issubclass(tt, BaseModel):
+                        walk(tt, p)
+
+    walk(Scenario, "")
+    return paths
+
+
+def _check_factor_path(path: str, base: dict) -> None:
+    """A factor path must name something in the base scenario or the scenario schema; effect
+    parameters (device.effects.<effect>.<param>) are checked against the registry."""
+    from twin.effects import get_effect
+
+    keys = path.split(".")
+    if keys[:2] == ["device", "effects"] and len(keys) == 4:
+        cls = get_effect(keys[2])  # raises with "did you mean"
+        names = [p.name for p in cls.parameters]
+        if keys[3] not in names:
+            close = difflib.get_close_matches(keys[3], names, n=1)
+            raise ScenarioError(f"factor {path!r}: effect {keys[2]!r} has no parameter {keys[3]!r}"
+                                + (f"; did you mean {close[0]!r}?" if close else f"; parameters: {', '.join(names)}"))
+        return
+    known = set(_leaf_paths(base)) | set(_schema_paths())
+    if path not in known:
+        close = difflib.get_close_matches(path, sorted(known), n=1)
+        raise ScenarioError(f"unknown factor path {path!r}" + (f"; did you mean {close[0]!r}?" if close else ""))
+
+
+def _resolve_plugin(spec: str, folder: Path) -> str:
+    """A ``.py`` plugin path made absolute (workers may run elsewhere); module names as given."""
+    return str((folder / spec).resolve()) if spec.endswith(".py") else spec
+
+
+def load_study(path: str | Path) -> tuple[Study, dict, Path]:
+    """Validate a study file and load its plugins; return it (plugin paths made absolute), the base
+    scenario data, and the study's folder."""
+    p = Path(path)
+    if not p.is_file():
+        raise ScenarioError(f"{p}: study file not found")
+    data, lines = load_yaml_mapping(p.read_text(), str(p), "a study is a YAML mapping")
+    try:
+        study = Study.model_validate(data)
+    except ValidationError as exc:
+        e = exc.errors(include_url=False)[0]
+        loc = tuple(e["loc"])
+        if e["type"] == "extra_forbidden":
+            valid = list(Study.model_fields) if len(loc) == 1 else list(DesignSpec.model_fields) if loc[0] == "design" \
+                else list(FactorSpec.model_fields)
+            close = difflib.get_close_matches(str(loc[-1]), valid, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ScenarioError(f"{where(str(p), lines, loc)}: unknown key {loc[-1]!r}{hint}") from None
+        raise ScenarioError(f"{where(str(p), lines, loc)}: {format_path(loc)}: {e['msg']}") from None
+    plugins = [_resolve_plugin(spec, p.parent) for spec in study.plugins]
+    for i, spec in enumerate(plugins):
+        try:
+            load_plugin(spec)
+        except TwinError as exc:
+            raise ScenarioError(f"{where(str(p), lines, ('plugins', i))}: plugins[{i}]: {exc}") from None
+    study = study.model_copy(update={"plugins": plugins})
+    for i, r in enumerate(study.responses):
+        try:
+            get_response(r)
+        except TwinError as exc:
+            raise ScenarioError(f"{where(str(p), lines, ('responses', i))}: {exc}") from None
+    base_path = (p.parent / study.base).resolve()
+    if not base_path.is_file():
+        raise ScenarioError(f"{p}: base scenario {study.base!r} not found (looked in {base_path})")
+    base = yaml.safe_load(base_path.read_text())
+    for name in study.factors:
+        try:
+            _check_factor_path(name, base)
+        except TwinError as exc:
+            raise ScenarioError(f"{where(str(p), lines, ('factors', name))}: {exc}") from None
+    n = len(design_points(study))
+    if n * study.replicates > study.max_runs:
+        raise ScenarioError(f"{p}: the {study.design.type} design needs {n} points × {study.replicates} replicates = "
+                            f"{n * study.replicates} runs, more than max_runs {study.max_runs}")
+    return study, base, p.parent
