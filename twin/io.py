@@ -37,3 +37,17 @@ def atomic_write_text(path: Path, text: str) -> Path:
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return Path(path)
+
+
+def read_text(path: str | Path, what: str, error: type[Exception]) -> str:
+    """The UTF-8 text of ``path``; a missing, unreadable or non-UTF-8 file raises ``error`` in one
+    line naming the file and ``what`` it should be (e.g. "scenario file")."""
+    p = Path(path)
+    if not p.is_file():
+        raise error(f"{p}: {what} not found" if not p.is_dir() else f"{p}: is a directory; expected a {what}")
+    try:
+        return p.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise error(f"{p}: {what} is not UTF-8 text (byte {exc.start}); expected a text file") from None
+    except OSError as exc:
+        raise error(f"{p}: cannot read {what}: {exc.strerror or exc}") from None

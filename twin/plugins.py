@@ -46,3 +46,45 @@ def import_plugin(spec: str, base_dir: str | Path = ".", error: type[TwinError] 
         del sys.modules[mod_name]
         raise error(f"plugin {path} failed to load: {type(exc).__name__}: {exc}") from None
     return module
+
+
+class Registry(dict):
+    """Name → entry, in registration order, for one kind of extension (compensator, response …).
+
+    Registering a name twice is allowed only from the same function (a module imported again);
+    an unknown name gets "did you mean"; :meth:`load_plugin` imports a user's module and returns
+    what it registered.
+    """
+
+    def __init__(self, kind: str, error: type[TwinError]):
+        super().__init__()
+        self.kind, self.error = kind, error
+        self._origins: dict[str, tuple[str, str]] = {}
+
+    def add(self, name: str, entry, origin) -> None:
+        """Register ``entry`` under ``name``; ``origin`` is the function that defines it."""
+        where = (origin.__module__, origin.__qualname__)
+        if name in self and self._origins[name] != where:
+            raise self.error(f"a {self.kind} named {name!r} is already registered (by {self._origins[name][0]})")
+        self[name] = entry
+        self._origins[name] = where
+
+    def lookup(self, name: str):
+        """The entry ``name``; unknown names get "did you mean"."""
+        from twin.text import did_you_mean
+
+        try:
+            return self[name]
+        except KeyError:
+            raise self.error(f"unknown {self.kind} {name!r}{did_you_mean(name, self)}") from None
+
+    def load_plugin(self, spec: str, base_dir: str | Path = ".") -> list[str]:
+        """Import a module (a ``.py`` path relative to ``base_dir``, or a module name); the names it
+        registered. Runs the user's code."""
+        before = set(self)
+        import_plugin(spec, base_dir, error=self.error)
+        return [n for n in self if n not in before]
+
+    def pop(self, name, *default):
+        self._origins.pop(name, None)
+        return super().pop(name, *default)

@@ -15,8 +15,15 @@ import numpy as np
 from twin.calibration.lag import lagged_c, make_X
 from twin.calibration.workflow import SCHEMA, SCHEMA_VERSION
 from twin.errors import TwinError
-from twin.firmware import G0_M_S2, ardupilot_parm_text, c_header, cal_from_dict, cal_to_dict, px4_params_text
-from twin.io import atomic_write_text
+from twin.firmware import (
+    G0_M_S2,
+    ardupilot_parm_text,
+    c_header,
+    cal_from_dict,
+    cal_to_dict,
+    px4_params_text,
+)
+from twin.io import atomic_write_text, read_text
 
 FORMATS = ("px4", "ardupilot", "json", "c")
 
@@ -29,11 +36,7 @@ def read_calibration(path: str | Path) -> dict:
     """The document ``twin calibrate -o`` wrote, checked for its schema."""
     path = Path(path)
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise CalibrationDocumentError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise CalibrationDocumentError(f"{path}: not UTF-8 text; expected a calibration JSON") from None
+        doc = json.loads(read_text(path, "calibration document", CalibrationDocumentError))
     except json.JSONDecodeError as exc:
         raise CalibrationDocumentError(f"{path}:{exc.lineno}: not JSON ({exc.msg})") from None
     if not isinstance(doc, dict) or doc.get("schema") != SCHEMA or doc.get("schema_version") != SCHEMA_VERSION:

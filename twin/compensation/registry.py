@@ -14,11 +14,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
 from twin.errors import TwinError
-from twin.plugins import import_plugin
-from twin.text import did_you_mean
+from twin.plugins import Registry
 
 
 class CompensatorError(TwinError):
@@ -50,7 +48,7 @@ class Compensator:
 
 
 #: name → compensator, in registration order (the benchmark's order)
-COMPENSATORS: dict[str, Compensator] = {}
+COMPENSATORS = Registry("compensator", CompensatorError)
 
 
 def register_compensator(name: str, label: str):
@@ -61,30 +59,14 @@ def register_compensator(name: str, label: str):
         raise CompensatorError(f"{name!r} is a reserved benchmark key")
 
     def decorate(factory):
-        existing = COMPENSATORS.get(name)
-        if existing is not None and (existing.factory.__module__, existing.factory.__qualname__) != \
-                (factory.__module__, factory.__qualname__):
-            raise CompensatorError(f"a compensator named {name!r} is already registered (by {existing.factory.__module__})")
-        COMPENSATORS[name] = Compensator(name, label, factory)
+        COMPENSATORS.add(name, Compensator(name, label, factory), factory)
         return factory
 
     return decorate
 
 
-def get_compensator(name: str) -> Compensator:
-    """The registered compensator ``name``; unknown names get "did you mean"."""
-    try:
-        return COMPENSATORS[name]
-    except KeyError:
-        raise CompensatorError(f"unknown compensator {name!r}{did_you_mean(name, COMPENSATORS)}") from None
-
-
-def load_plugin(spec: str, base_dir: str | Path = ".") -> list[str]:
-    """Import a compensator module (a ``.py`` path relative to ``base_dir``, or a module name);
-    the names it registered. Runs the user's code."""
-    before = set(COMPENSATORS)
-    import_plugin(spec, base_dir, error=CompensatorError)
-    return [n for n in COMPENSATORS if n not in before]
+get_compensator = COMPENSATORS.lookup
+load_plugin = COMPENSATORS.load_plugin
 
 
 # The built-in compensators, registered in the benchmark's order (after the names above exist:

@@ -22,6 +22,7 @@ import yaml
 from twin.measurement import Measurement, from_dataset, write_canonical_csv
 from twin.model.scenario import LoadedScenario, parse_scenario
 from twin.model.simulate import simulate
+from twin.parts import load_part
 
 #: case → family the diagnosis must name (None: nothing to find)
 CASES = {
@@ -171,7 +172,8 @@ def draw_case(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) 
         device["probe_offset"] = {"offset_c": _u(rng, 0.5, 2.0) * (1 if rng.random() < 0.5 else -1)}
         truth.update(device["probe_offset"])
     elif kind == "noise_misspecified":  # 2x stronger, 3x longer-correlated than nominal
-        sensor.update(noise_density_ug_per_sqrt_hz=2 * 218.0, bias_instability_mg=0.1, bias_instability_tau_s=900.0)
+        nominal = load_part("IIS328DQ").value("noise_density_ug_per_sqrt_hz")
+        sensor.update(noise_density_ug_per_sqrt_hz=2 * nominal, bias_instability_mg=0.1, bias_instability_tau_s=900.0)
     _AMPLITUDE = {"thermal_hysteresis": ["k_mg_per_c"], "stress_relaxation": ["k1_mg_per_c", "k2_mg_per_c"],
                   "scale_factor_tc": ["tc1_ppm_per_c"], "aging_drift": ["rate_mg_per_h", "log_mg"],
                   "warmup": ["amplitude_mg"]}

@@ -26,8 +26,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twin.firmware.common import (CalibrationRangeError, ClampedPolynomial, FirmwareCalError,
-                                  as_samples, as_temperature)
+from twin.firmware.common import (
+    CalibrationRangeError,
+    ClampedPolynomial,
+    FirmwareCalError,
+    as_samples,
+    as_temperature,
+)
 
 TEMP_REF_C = 35.0  # tempcal_IMU.py TEMP_REF and AP_InertialSensor_tempcal.cpp TEMP_REFERENCE
 SCALE_FACTOR = 1.0e6  # tempcal_IMU.py / AP_InertialSensor_tempcal.cpp SCALE_FACTOR

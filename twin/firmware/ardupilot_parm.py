@@ -23,7 +23,7 @@ import numpy as np
 
 from twin.firmware.ardupilot import CALTEMP_UNSET_C, SCALE_FACTOR, ArduPilotAccelCal
 from twin.firmware.common import CalibrationFileError
-from twin.io import atomic_write_text
+from twin.io import atomic_write_text, read_text
 
 
 def ardupilot_parm_text(cal: ArduPilotAccelCal, *, write_caltemp: bool = False, zero_gyro: bool = True) -> str:
@@ -83,12 +83,7 @@ def parse_ardupilot_parm(text: str, source: str = "<parm>") -> dict[str, float]:
 
 def read_ardupilot_parm(path) -> dict[str, float]:
     """Read and parse a ``.parm`` file (see :func:`parse_ardupilot_parm`)."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise CalibrationFileError(f"{path}: cannot read ({exc.strerror})") from None
-    return parse_ardupilot_parm(text, str(path))
+    return parse_ardupilot_parm(read_text(path, "parameter file", CalibrationFileError), str(path))
 
 
 def ardupilot_cal_from_parm(values: Mapping[str, float], instance: int = 1,

@@ -16,7 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twin.firmware.common import ClampedPolynomial, FirmwareCalError, as_samples, as_temperature
+from twin.firmware.common import (
+    ClampedPolynomial,
+    FirmwareCalError,
+    as_samples,
+    as_temperature,
+)
 
 
 @dataclass(frozen=True)

@@ -25,8 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import medfilt
 
-from twin.firmware.common import (ClampedPolynomial, FirmwareCalError, as_samples,
-                                  as_temperature)
+from twin.firmware.common import (
+    ClampedPolynomial,
+    FirmwareCalError,
+    as_samples,
+    as_temperature,
+)
 
 MEDIAN_KERNEL = 31  # process_sensor_caldata.py: median_filter() = medfilt(data, 31)
 N_BINS = 2000  # process_sensor_caldata.py: resampleWithDeltaX, nbInterval = 2000

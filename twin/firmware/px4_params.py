@@ -22,7 +22,7 @@ import numpy as np
 
 from twin.firmware.common import CalibrationFileError, float32_text
 from twin.firmware.px4 import Px4AccelCal
-from twin.io import atomic_write_text
+from twin.io import atomic_write_text, read_text
 
 MAV_PARAM_TYPE_INT32 = 6
 MAV_PARAM_TYPE_REAL32 = 9
@@ -156,12 +156,7 @@ def parse_px4_params(text: str, source: str = "<params>") -> Px4ParamFile:
 
 def read_px4_params(path) -> Px4ParamFile:
     """Read and parse a QGC ``.params`` file (see :func:`parse_px4_params`)."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise CalibrationFileError(f"{path}: cannot read ({exc.strerror})") from None
-    return parse_px4_params(text, str(path))
+    return parse_px4_params(read_text(path, "parameter file", CalibrationFileError), str(path))
 
 
 def px4_cal_from_params(values: Mapping[str, float], instance: int = 0) -> Px4AccelCal:

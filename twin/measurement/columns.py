@@ -38,7 +38,7 @@ class ColumnMap:
     temperature_unit: str = "C"
     output_unit: str = "g"
     output_scale: float = 1.0
-    digit_mg: float = 0.98
+    digit_mg: float | None = None  # the part's sensitivity [mg/digit]: required with output_unit digits
     skip_lines: int = 0
     delimiter: str | None = None  # None: sniff ',', tab, ';', whitespace
     header: bool = True
@@ -108,6 +108,9 @@ def convert_output(values: np.ndarray, cmap: ColumnMap) -> np.ndarray:
     elif unit in ("m/s^2", "m/s2"):
         out = values / STANDARD_GRAVITY
     elif unit == "digits":
+        if cmap.digit_mg is None:
+            raise MeasurementError("output_unit digits needs digit_mg, the sensor's sensitivity [mg/digit] "
+                                   "(twin parts lists it per full scale)")
         out = values * cmap.digit_mg * 1e-3
     else:
         raise MeasurementError(f"output_unit must be one of {', '.join(OUTPUT_UNITS)}, got {unit!r}")

@@ -25,7 +25,11 @@ from sim import thermal
 from sim.microstructure import CombGeometry
 from sim.sensor import AccelerometerConfig
 from twin.errors import ModelError, ScenarioError
+from twin.io import read_text
 from twin.model.sections import (  # noqa: F401 - re-exported: the sections are part of this module's API
+    AXES,
+    AxesSection,
+    AxisSection,
     ChamberSection,
     Conduction1DSection,
     DeviceSection,
@@ -39,6 +43,7 @@ from twin.model.sections import (  # noqa: F401 - re-exported: the sections are 
     RampStep,
     Scenario,
     SensorSection,
+    SixPositionSection,
     StaircaseStep,
     TestPlanSection,
     ThermometerSection,
@@ -46,8 +51,15 @@ from twin.model.sections import (  # noqa: F401 - re-exported: the sections are 
     TwinSection,
 )
 from twin.model.yaml_loader import validation_message
-from twin.parts import SIMULATION_FIGURES, Part, PartError, accelerometer_figures, load_part
+from twin.parts import (
+    SIMULATION_FIGURES,
+    Part,
+    PartError,
+    accelerometer_figures,
+    load_part,
+)
 from twin.text import did_you_mean, load_yaml_mapping, where
+
 
 def _dataclass_kwargs(section, cls) -> dict:
     """The fields of ``section`` that the dataclass ``cls`` takes, by name (never by position)."""
@@ -71,12 +83,18 @@ class LoadedScenario:
     def geometry(self) -> CombGeometry:
         return CombGeometry(**_dataclass_kwargs(self.scenario.device.geometry, CombGeometry))
 
-    def device_composition(self):
-        """The effects the simulated device truly has."""
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """The sensing axes simulated: ``("x", "y", "z")`` with ``device.axes``, else ``()`` (one axis)."""
+        return AXES if self.scenario.device.axes is not None else ()
+
+    def device_composition(self, axis: str | None = None):
+        """The effects the simulated device truly has (of ``axis`` x, y or z for a three-axis device)."""
         from twin.effects import Composition, get_effect
 
         ctx = {"geometry": self.geometry()}
-        return Composition([get_effect(n)(ctx, **(p or {})) for n, p in self.scenario.device.effects.items()])
+        effects = self.scenario.device.effects if axis is None else getattr(self.scenario.device.axes, axis).effects
+        return Composition([get_effect(n)(ctx, **(p or {})) for n, p in effects.items()])
 
     def twin_composition(self, values: dict[str, dict[str, float]] | None = None):
         """The effects the twin's model assumes (``twin.effects``), at defaults or ``values``."""
@@ -126,14 +144,7 @@ def parse_scenario(text: str, path: str = "<string>") -> LoadedScenario:
 
 def load_scenario(path: str | Path) -> LoadedScenario:
     """Read and validate a scenario file."""
-    p = Path(path)
-    if not p.is_file():
-        raise ScenarioError(f"{p}: scenario file not found")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"{p}: cannot read scenario: {exc}") from None
-    return parse_scenario(text, str(p))
+    return parse_scenario(read_text(path, "scenario file", ScenarioError), str(Path(path)))
 
 
 def _compile_program(scenario: Scenario, path: str, lines: dict[tuple, int]) -> prog.ChamberProgram:
@@ -190,16 +201,26 @@ def _check_consistency(scenario: Scenario, path: str, lines: dict[tuple, int]) -
     """Cross-section checks: effect names and parameters, thermometer node, logger vs ODR."""
     from twin.effects import get_effect
 
-    for name, params in scenario.device.effects.items():
-        loc = ("device", "effects", name)
-        try:
-            effect = get_effect(name)(**(params or {}))
-        except ModelError as exc:
-            raise ScenarioError(f"{where(path, lines, loc)}: device.effects: {exc}") from None
-        if effect.slot == "temperature":
-            raise ScenarioError(
-                f"{where(path, lines, loc)}: device.effects: {name!r} is the twin's model of the die-thermometer lag; "
-                "a simulated device gets its lag from the thermal chain (set chamber.thermometer.attached_to and tau_s)")
+    axes = scenario.device.axes
+    groups = [(("device", "effects"), scenario.device.effects)] if axes is None else [
+        (("device", "axes", a, "effects"), getattr(axes, a).effects) for a in AXES]
+    for prefix, effects in groups:
+        key = ".".join(prefix)
+        for name, params in effects.items():
+            loc = prefix + (name,)
+            try:
+                effect = get_effect(name)(**(params or {}))
+            except ModelError as exc:
+                raise ScenarioError(f"{where(path, lines, loc)}: {key}: {exc}") from None
+            if effect.slot == "temperature":
+                raise ScenarioError(
+                    f"{where(path, lines, loc)}: {key}: {name!r} is the twin's model of the die-thermometer lag; a "
+                    "simulated device gets its lag from the thermal chain (set chamber.thermometer.attached_to and tau_s)")
+            if axes is not None and effect.acts_on_thermometer:
+                raise ScenarioError(
+                    f"{where(path, lines, loc)}: {key}: {name!r} acts on the thermometer, which the three axes share; "
+                    "it cannot be given per axis")
+    _check_orientations(scenario, path, lines)
     for i, name in enumerate(scenario.twin.effects):
         try:
             get_effect(name)
@@ -229,6 +250,29 @@ def _check_consistency(scenario: Scenario, path: str, lines: dict[tuple, int]) -
         )
     if not math.isfinite(tp.logger_rate_hz):
         raise ScenarioError(f"{where(path, lines, ('test_plan',))}: test_plan.logger_rate_hz must be finite")
+
+
+def _check_orientations(scenario: Scenario, path: str, lines: dict[tuple, int]) -> None:
+    """A one-axis device takes applied_g orientations, a three-axis device gravity vectors."""
+    tp = scenario.test_plan
+    if scenario.device.axes is None:
+        if tp.six_position is not None:
+            raise ScenarioError(f"{where(path, lines, ('test_plan', 'six_position'))}: test_plan.six_position needs a "
+                                "three-axis device (device.axes); a one-axis device takes orientations or tumble")
+        bad = [i for i, o in enumerate(tp.orientations) if o.gravity_g is not None]
+        what, expect = "gravity_g", "needs a three-axis device (device.axes); a one-axis device takes applied_g [g]"
+    else:
+        for key in ("tumble", "run_applied_g"):
+            if getattr(tp, key) is not None:
+                raise ScenarioError(f"{where(path, lines, ('test_plan', key))}: test_plan.{key} gives one-axis "
+                                    "applied_g; a three-axis device (device.axes) takes six_position or orientations "
+                                    "with gravity_g")
+        bad = [i for i, o in enumerate(tp.orientations) if o.applied_g is not None] \
+            if "orientations" in tp.model_fields_set else []
+        what, expect = "applied_g", "is one-axis; a three-axis device (device.axes) takes gravity_g [gx, gy, gz]"
+    if bad:
+        loc = ("test_plan", "orientations", bad[0], what)
+        raise ScenarioError(f"{where(path, lines, loc)}: test_plan.orientations[{bad[0]}].{what} {expect}")
 
 
 def json_schema() -> dict:

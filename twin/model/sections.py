@@ -10,6 +10,7 @@ defaults here: they come from the part (``twin/parts/``), the scenario overridin
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
@@ -218,23 +219,86 @@ class GeometrySection(_Section):
 
 
 EffectParams = dict[str, float]
+AXES = ("x", "y", "z")
+
+
+def _default_effects() -> dict[str, EffectParams]:
+    return {"static_bias_tc": {}, "scale_factor_tc": {}}
+
+
+class AxisSection(_Section):
+    """One sensing axis of a three-axis device: its own drift effects and zero-g offset."""
+
+    effects: dict[str, EffectParams] = Field(default_factory=_default_effects,
+                                             description="effects this axis truly has, with their parameters")
+    zero_g_offset_mg: float = Field(0.0, description="zero-g offset of this axis at the reference temperature [mg]")
+
+
+class AxesSection(_Section):
+    """The sensing axes x, y, z of a three-axis device: one die and one thermal path, shared;
+    effects, zero-g offsets and noise streams per axis."""
+
+    x: AxisSection
+    y: AxisSection
+    z: AxisSection
 
 
 class DeviceSection(_Section):
     sensor: SensorSection = SensorSection()
     geometry: GeometrySection = GeometrySection()
     effects: dict[str, EffectParams] = Field(
-        default_factory=lambda: {"static_bias_tc": {}, "scale_factor_tc": {}},
+        default_factory=_default_effects,
         description="effects the simulated device truly has, with their parameters",
     )
+    axes: AxesSection | None = Field(None, description="a three-axis device: effects and zero-g offset per axis "
+                                                       "(instead of effects and sensor.zero_g_offset_mg)")
+
+    @model_validator(mode="after")
+    def _axes_carry_their_own_effects(self) -> DeviceSection:
+        if self.axes is None:
+            return self
+        given = (["effects"] if "effects" in self.model_fields_set else []) + (
+            ["sensor.zero_g_offset_mg"] if "zero_g_offset_mg" in self.sensor.model_fields_set else [])
+        if given:
+            raise ValueError(f"{' and '.join(given)} {'is' if len(given) == 1 else 'are'} for a one-axis device; with "
+                             "axes give effects and zero_g_offset_mg per axis (axes.x.effects, axes.x.zero_g_offset_mg, ...)")
+        return self
 
 
 # ------------------------------------------------------------------ test plan, twin, output
 
 
+GRAVITY_TOLERANCE = 0.01  # |gravity_g| must be 1 within this [g]
+POSITIONS = {f"{sign}{a}": tuple(float(sign + "1") if b == a else 0.0 for b in AXES) for a in AXES for sign in "+-"}
+Position = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
+
+
 class OrientationSection(_Section):
     at_s: NonNegativeFloat = Field(description="time from the start of each run [s]")
-    applied_g: float = Field(description="acceleration along the sensing axis from then on [g]")
+    applied_g: float | None = Field(None, description="one-axis device: acceleration along the sensing axis from "
+                                                      "then on [g]")
+    gravity_g: list[float] | None = Field(None, description="three-axis device: gravity seen by the axes x, y, z from "
+                                                            "then on (a unit vector) [g]")
+
+    @field_validator("gravity_g")
+    @classmethod
+    def _unit_vector(cls, v: list[float] | None) -> list[float] | None:
+        if v is None:
+            return v
+        if len(v) != 3:
+            raise ValueError(f"needs three components [gx, gy, gz] in g, got {len(v)}")
+        norm = math.sqrt(sum(c * c for c in v))
+        if not abs(norm - 1.0) <= GRAVITY_TOLERANCE:
+            raise ValueError(f"|gravity_g| = {norm:.4g} g; a gravity vector must have unit length "
+                             f"(1 ± {GRAVITY_TOLERANCE:g} g), e.g. [0, 0, 1]")
+        return v
+
+    @model_validator(mode="after")
+    def _one_of_applied_or_gravity(self) -> OrientationSection:
+        if (self.applied_g is None) == (self.gravity_g is None):
+            raise ValueError("give one of applied_g [g] (one-axis device) or gravity_g [gx, gy, gz] (three-axis "
+                             f"device, device.axes); got {'both' if self.applied_g is not None else 'neither'}")
+        return self
 
 
 class TumbleSection(_Section):
@@ -242,6 +306,30 @@ class TumbleSection(_Section):
 
     block_s: PositiveFloat = Field(description="time in each orientation [s]")
     applied_g: list[float] = Field(min_length=1, description="the cycle of orientations [g]")
+
+
+class SixPositionSection(_Section):
+    """Gravity along each sensor axis in turn, blocks of ``block_s`` repeated through each run."""
+
+    block_s: PositiveFloat = Field(description="time in each position [s], the turn into it included")
+    turn_s: NonNegativeFloat = Field(10.0, description="time to turn into the next position [s]; gravity rotates at a "
+                                                       "constant rate from one position to the next")
+    order: list[Position] = Field(default_factory=lambda: list(POSITIONS),
+                                  description="the cycle of positions: +x points up, reads +1 g, ... (all six)")
+
+    @field_validator("order")
+    @classmethod
+    def _all_six(cls, v: list[str]) -> list[str]:
+        missing = [p for p in POSITIONS if p not in v]
+        if missing:
+            raise ValueError(f"must hold all six positions {', '.join(POSITIONS)}; missing {', '.join(missing)}")
+        return v
+
+    @model_validator(mode="after")
+    def _turn_within_block(self) -> SixPositionSection:
+        if self.turn_s >= self.block_s:
+            raise ValueError(f"turn_s {self.turn_s:g} s must be shorter than block_s {self.block_s:g} s")
+        return self
 
 
 class TestPlanSection(_Section):
@@ -253,11 +341,16 @@ class TestPlanSection(_Section):
     tumble: TumbleSection | None = Field(None, description="cyclic orientation blocks, instead of orientations")
     run_applied_g: list[float] | None = Field(None, min_length=1,
                                               description="one constant orientation per run, cycling (e.g. [1, -1])")
+    six_position: SixPositionSection | None = Field(None, description="three-axis device: gravity along +x, -x, ... "
+                                                                      "in blocks, instead of orientations")
 
     @model_validator(mode="after")
     def _one_orientation_source(self) -> TestPlanSection:
         given = [k for k in ("orientations", "tumble", "run_applied_g")
                  if k in self.model_fields_set and getattr(self, k) is not None]
+        if self.six_position is not None and given:
+            raise ValueError(f"six_position and {', '.join(given)}: give one orientation source (six_position "
+                             "cycles gravity vectors as tumble cycles applied_g)")
         if len(given) > 1:
             raise ValueError(f"give one of orientations, tumble, run_applied_g; got {', '.join(given)}")
         return self
@@ -269,6 +362,17 @@ class TestPlanSection(_Section):
         n = int(duration_s // self.tumble.block_s) + 1
         values = self.tumble.applied_g
         return [k * self.tumble.block_s for k in range(n)], [values[k % len(values)] for k in range(n)]
+
+    def gravity_schedule(self, duration_s: float) -> tuple[list[float], list[tuple[float, float, float]]]:
+        """(at_s, gravity_g) of the orientation steps in one run of a three-axis device; +z up
+        (gravity [0, 0, 1]) when the test plan gives no orientation."""
+        if self.six_position is not None:
+            six = self.six_position
+            n = int(duration_s // six.block_s) + 1
+            return [k * six.block_s for k in range(n)], [POSITIONS[six.order[k % len(six.order)]] for k in range(n)]
+        if "orientations" not in self.model_fields_set:
+            return [0.0], [POSITIONS["+z"]]
+        return [o.at_s for o in self.orientations], [tuple(o.gravity_g) for o in self.orientations]
 
     @field_validator("orientations")
     @classmethod

@@ -2,14 +2,17 @@
 
 Every random draw comes from the scenario's seed through independent streams (white noise,
 bias instability, thermometer), so the same seed gives identical arrays and another seed
-changes the noise only.
+changes the noise only. A three-axis device (``device.axes``) shares the thermal result and the
+thermometer stream; each axis gets child streams of the white-noise, bias-instability and
+turn-on streams (:meth:`numpy.random.SeedSequence.spawn`), so a one-axis scenario draws exactly
+what it drew before three-axis devices existed.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -17,8 +20,9 @@ from sim.program import segment_kind
 from sim.sensor import logger_white_sigma_g, sensor_output
 from sim.thermal import ThermalResult, read_thermometer, simulate_chain
 from twin import __version__
-from twin.model.dataset import LAYOUT_VERSION, Dataset
 from twin.effects import EffectInputs
+from twin.model import axes
+from twin.model.dataset import LAYOUT, LAYOUT_VERSION, Dataset
 from twin.model.scenario import LoadedScenario
 
 STAGES = ("program", "thermal chain", "effects", "sensor")
@@ -57,12 +61,75 @@ def _power_on(t_run: np.ndarray, power_on_s: list[float]) -> tuple[np.ndarray, n
     return flag, t_run - last
 
 
+@dataclass
+class _Axis:
+    """One sensing axis simulated: the acceleration applied to it, its drift and its output."""
+
+    applied: np.ndarray
+    contributions: dict
+    turn_on_g: np.ndarray
+    bias: np.ndarray
+    sf: np.ndarray
+    true_g: np.ndarray | None = None
+    out: object = None
+
+
+def _drift(composition, inputs: EffectInputs, zero_g_mg: float, turn_on_mg: float, runs: int, n_run: int,
+           rng_turn_on: np.random.Generator) -> _Axis:
+    """The device's effects on one axis (``inputs.applied_g`` applied to it): bias and scale factor."""
+    t = inputs.time_s
+    contributions = composition.evaluate(inputs, device=True)
+    zero_g_g = zero_g_mg * 1e-3
+    turn_on_g = np.repeat(rng_turn_on.normal(0.0, turn_on_mg * 1e-3, runs), n_run)
+    bias = zero_g_g + turn_on_g + sum((np.broadcast_to(c.bias_g, t.shape) for c in contributions.values()),
+                                      np.zeros(t.size))
+    sf = sum((np.broadcast_to(c.scale_factor, t.shape) for c in contributions.values()), np.zeros(t.size))
+    return _Axis(inputs.applied_g, contributions, turn_on_g, bias, sf)
+
+
+def _output(axis: _Axis, sensor, tp, rng_white: np.random.Generator, rng_bias: np.random.Generator) -> None:
+    axis.true_g = axis.applied * (1.0 + axis.sf) + axis.bias
+    axis.out = sensor_output(axis.true_g, sensor, tp.logger_rate_hz, rng_white, rng_bias, logger_mode=tp.logger_mode)
+
+
+def _add(ds: Dataset, path: str, values, axis: str | None, description: str | None = None) -> None:
+    """Add a per-axis array under its one-axis name (``axis`` None) or its three-axis name."""
+    units, desc = LAYOUT.get(path, ("g", ""))
+    desc = desc if description is None else description
+    if axis is None:
+        ds.add(path, values, units, desc)
+    else:
+        ds.add(axes.axis_path(path, axis), values, units, axes.axis_description(desc, axis))
+
+
+def _add_axis(ds: Dataset, a: _Axis, axis: str | None) -> None:
+    """The output and the truth of one axis."""
+    out, shape = a.out, a.applied.shape
+    _add(ds, "output/output_g", out.output_g, axis)
+    _add(ds, "output/output_digits", out.digits, axis)
+    for name, c in a.contributions.items():
+        _add(ds, f"truth/effects/{name}_g", np.broadcast_to(c.output_g(a.applied), shape).astype(float), axis,
+             f"contribution of effect {name!r} to the output")
+    _add(ds, "truth/drift_g", a.true_g - a.applied - a.turn_on_g, axis)
+    _add(ds, "truth/turn_on_bias_g", a.turn_on_g, axis)
+    _add(ds, "truth/bias_g", a.bias, axis)
+    _add(ds, "truth/scale_factor_error", a.sf, axis)
+    _add(ds, "truth/noise_white_g", out.white_g, axis)
+    _add(ds, "truth/noise_bias_instability_g", out.bias_instability_g, axis)
+    _add(ds, "truth/quantisation_g", out.quantisation_g, axis)
+    _add(ds, "truth/saturated", out.saturated, axis)
+
+
 def simulate(
     loaded: LoadedScenario,
     seed: int | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Dataset:
     """Simulate a scenario into a :class:`Dataset` with its ground truth.
+
+    A three-axis device (``device.axes``) shares the thermal result (die, thermometer) across
+    its axes; each axis has its own effects, zero-g offset, turn-on bias and noise streams
+    (children of the scenario seed's streams, :class:`numpy.random.SeedSequence` spawn).
 
     Parameters
     ----------
@@ -74,9 +141,11 @@ def simulate(
     """
     scn = loaded.scenario
     seed = scn.seed if seed is None else int(seed)
-    rng_white, rng_bias, rng_thermo, rng_turn_on = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4))
+    streams = np.random.SeedSequence(seed).spawn(4)
+    rng_white, rng_bias, rng_thermo, rng_turn_on = (np.random.default_rng(s) for s in streams)
     tick = progress or (lambda stage: None)
     tp = scn.test_plan
+    three = bool(loaded.axes)
 
     tick(STAGES[0])
     t_run = time_base(loaded)
@@ -90,28 +159,39 @@ def simulate(
     time_s = (t_run[None, :] + run_period * np.arange(runs)[:, None]).ravel()
     run_index = np.repeat(np.arange(runs, dtype=np.int16), n_run)
     composition = loaded.device_composition()
-    probe = replace(thermometer, offset_c=thermometer.offset_c + composition.thermometer_shift_c())
+    shift_c = 0.0 if three else composition.thermometer_shift_c()  # per-axis effects never act on it
+    probe = replace(thermometer, offset_c=thermometer.offset_c + shift_c)
     thermo = np.concatenate([read_thermometer(t_run, th.probe_c, probe, rng_thermo) for _ in range(runs)])
-    applied = tile(_step_schedule(t_run, *tp.orientation_schedule(t_run[-1])))
-    if tp.run_applied_g:
-        applied = np.repeat([tp.run_applied_g[r % len(tp.run_applied_g)] for r in range(runs)], n_run).astype(float)
+    if three:
+        gravity = np.tile(axes.gravity_g(tp, t_run), (runs, 1))
+        applied = gravity[:, 2]  # a placeholder: each axis gets its own column below
+    else:
+        applied = tile(_step_schedule(t_run, *tp.orientation_schedule(t_run[-1])))
+        if tp.run_applied_g:
+            applied = np.repeat([tp.run_applied_g[r % len(tp.run_applied_g)] for r in range(runs)], n_run).astype(float)
     flag, since = _power_on(t_run, tp.power_on_s)
 
     tick(STAGES[2])
     inputs = EffectInputs(time_s=time_s, die_c=tile(th.die_c), thermometer_c=thermo, applied_g=applied,
                           run_index=run_index, time_since_power_on_s=tile(since))
-    contributions = composition.evaluate(inputs, device=True)
-    zero_g_g = scn.device.sensor.zero_g_offset_mg * 1e-3
-    turn_on_g = np.repeat(rng_turn_on.normal(0.0, scn.device.sensor.turn_on_bias_mg * 1e-3, runs), n_run)
-    bias = zero_g_g + turn_on_g + sum((np.broadcast_to(c.bias_g, time_s.shape) for c in contributions.values()),
-                                      np.zeros(time_s.size))
-    sf = sum((np.broadcast_to(c.scale_factor, time_s.shape) for c in contributions.values()), np.zeros(time_s.size))
+    sensor_section = scn.device.sensor
+    if three:  # per axis: effects, zero-g offset, and child streams of the white, bias and turn-on streams
+        children = [s.spawn(len(loaded.axes)) for s in (streams[0], streams[1], streams[3])]
+        rngs = [tuple(np.random.default_rng(c[k]) for c in children) for k in range(len(loaded.axes))]
+        per_axis = {a: _drift(loaded.device_composition(a), inputs.replace(applied_g=gravity[:, k]),
+                              getattr(scn.device.axes, a).zero_g_offset_mg, sensor_section.turn_on_bias_mg, runs,
+                              n_run, rngs[k][2]) for k, a in enumerate(loaded.axes)}
+    else:
+        rngs = [(rng_white, rng_bias, rng_turn_on)]
+        per_axis = {None: _drift(composition, inputs, sensor_section.zero_g_offset_mg, sensor_section.turn_on_bias_mg,
+                                 runs, n_run, rng_turn_on)}
 
     tick(STAGES[3])
     sensor = loaded.sensor()
-    true_g = applied * (1.0 + sf) + bias
-    out = sensor_output(true_g, sensor, tp.logger_rate_hz, rng_white, rng_bias, logger_mode=tp.logger_mode)
+    for (w, b, _), a in zip(rngs, per_axis.values()):
+        _output(a, sensor, tp, w, b)
 
+    effects = list(dict.fromkeys(n for a in per_axis.values() for n in a.contributions))
     ds = Dataset({}, {}, attrs={
         "scenario_yaml": loaded.text,
         "scenario_path": loaded.path,
@@ -127,8 +207,9 @@ def simulate(
         "white_noise_sigma_g": logger_white_sigma_g(sensor, tp.logger_rate_hz, tp.logger_mode),
         "thermal_model": scn.chamber.model,
         "thermometer_attached_to": thermometer.attached_to,
-        "effects": list(contributions),
+        "effects": effects,
         "runs": runs,
+        **({"axes": list(loaded.axes)} if three else {}),
     })
     ds.add("time_s", time_s)
     ds.add("program/setpoint_c", tile(th.setpoint_c))
@@ -138,29 +219,28 @@ def simulate(
     ds.add("temperature/die_c", inputs.die_c)
     ds.add("temperature/thermometer_true_c", tile(th.probe_c))
     ds.add("temperature/thermometer_c", thermo)
-    ds.add("test/applied_g", applied)
+    for axis, a in per_axis.items():
+        _add(ds, "test/applied_g", a.applied, axis)
     ds.add("test/run_index", run_index)
     ds.add("test/power_on", tile(flag))
     ds.add("test/time_since_power_on_s", inputs.time_since_power_on_s)
-    ds.add("output/output_g", out.output_g)
-    ds.add("output/output_digits", out.digits)
-    for name, c in contributions.items():
-        ds.add(f"truth/effects/{name}_g", np.broadcast_to(c.output_g(applied), time_s.shape).astype(float), "g",
-               f"contribution of effect {name!r} to the output")
-    ds.add("truth/drift_g", true_g - applied - turn_on_g)
-    ds.add("truth/turn_on_bias_g", turn_on_g)
-    ds.add("truth/bias_g", bias)
-    ds.add("truth/scale_factor_error", sf)
-    ds.add("truth/noise_white_g", out.white_g)
-    ds.add("truth/noise_bias_instability_g", out.bias_instability_g)
-    ds.add("truth/quantisation_g", out.quantisation_g)
-    ds.add("truth/saturated", out.saturated)
+    for axis, a in per_axis.items():
+        _add_axis(ds, a, axis)
     return ds
 
 
 def summary(ds: Dataset) -> dict:
-    """Machine-readable summary of a simulated dataset (``twin run --json``)."""
+    """Machine-readable summary of a simulated dataset (``twin run --json``); over all axes of a
+    three-axis dataset (its ``axes`` key lists them)."""
     t = ds["time_s"]
+    if axes.is_three_axis(ds):
+        die, thermo = ds["temperature/die_c"], ds["temperature/thermometer_c"]
+        return {"samples": len(ds), "duration_h": float(t[-1] - t[0]) / 3600.0 if t.size else 0.0,
+                "seed": int(ds.attrs["seed"]), "runs": int(ds.attrs["runs"]), "effects": list(ds.attrs["effects"]),
+                "setpoint_range_c": [float(ds["program/setpoint_c"].min()), float(ds["program/setpoint_c"].max())],
+                "die_range_c": [float(die.min()), float(die.max())],
+                "die_minus_thermometer_max_abs_c": float(np.max(np.abs(die - thermo))),
+                "white_noise_sigma_mg": float(ds.attrs["white_noise_sigma_g"]) * 1e3, **axes.summary_fields(ds)}
     drift = ds["truth/drift_g"]
     die, thermo = ds["temperature/die_c"], ds["temperature/thermometer_c"]
     return {

@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from twin.errors import ScenarioError
+from twin.io import read_text
 from twin.text import did_you_mean, format_path, load_yaml_mapping, where
 
 HERE = Path(__file__).resolve().parent
@@ -219,12 +220,7 @@ def parse_part(data: dict, path: str, lines: dict[tuple, int] | None = None) -> 
 def read_part_file(path: str | Path) -> Part:
     """Load and validate one part YAML file."""
     p = Path(path)
-    if not p.is_file():
-        raise PartError(f"{p}: part file not found")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PartError(f"{p}: cannot read part file: {exc}") from None
+    text = read_text(p, "part file", PartError)
     try:
         data, lines = load_yaml_mapping(text, str(p), "a part file is a YAML mapping with 'name' and 'figures'")
     except ScenarioError as exc:

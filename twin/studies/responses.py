@@ -12,13 +12,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
-from pathlib import Path
 
 import numpy as np
 
 from twin.errors import TwinError
-from twin.plugins import import_plugin
-from twin.text import did_you_mean
+from twin.plugins import Registry
 
 
 class ResponseError(TwinError):
@@ -120,7 +118,7 @@ class Response:
 
 
 #: name → response, in registration order
-RESPONSES: dict[str, Response] = {}
+RESPONSES = Registry("response", ResponseError)
 
 
 def register_response(name: str, *, description: str, unit: str = ""):
@@ -131,30 +129,14 @@ def register_response(name: str, *, description: str, unit: str = ""):
         raise ResponseError(f"response {name!r} needs a description")
 
     def decorate(function):
-        existing = RESPONSES.get(name)
-        if existing is not None and (existing.function.__module__, existing.function.__qualname__) != \
-                (function.__module__, function.__qualname__):
-            raise ResponseError(f"a response named {name!r} is already registered (by {existing.function.__module__})")
-        RESPONSES[name] = Response(name, description, unit, function)
+        RESPONSES.add(name, Response(name, description, unit, function), function)
         return function
 
     return decorate
 
 
-def get_response(name: str) -> Response:
-    """The registered response ``name``; unknown names get "did you mean"."""
-    try:
-        return RESPONSES[name]
-    except KeyError:
-        raise ResponseError(f"unknown response {name!r}{did_you_mean(name, RESPONSES)}") from None
-
-
-def load_plugin(spec: str, base_dir: str | Path = ".") -> list[str]:
-    """Import a response module (a ``.py`` path relative to ``base_dir``, or a module name); the
-    names it registered. Runs the user's code."""
-    before = set(RESPONSES)
-    import_plugin(spec, base_dir, error=ResponseError)
-    return [n for n in RESPONSES if n not in before]
+get_response = RESPONSES.lookup
+load_plugin = RESPONSES.load_plugin
 
 
 # The built-in responses (after the names above exist: standard_responses imports them).
