@@ -62,6 +62,22 @@ class PolynomialCompensator(RegressorMixin, BaseEstimator):
         X = validate_data(self, X, reset=False, dtype=np.float64)
         return self._design(X, self.order_) @ self.coef_
 
+    def equation(self, feature_names=None, unit: str = "g") -> str:
+        """The fitted polynomial with its values, in standardised features z_j = (x_j − mean_j)/scale_j.
+
+        ``feature_names``: e.g. ``FeatureSet.names()``; default x0, x1, ….
+        """
+        check_is_fitted(self, "coef_")
+        k = self.x_mean_.size
+        names = list(feature_names or [f"x{j}" for j in range(k)])
+        terms = [f"{self.coef_[0]:+.6g}"]
+        for order in range(1, self.order_ + 1):
+            for j in range(k):
+                power = "" if order == 1 else f"^{order}"
+                terms.append(f"{self.coef_[1 + (order - 1) * k + j]:+.6g}·z({names[j]}){power}")
+        scales = ", ".join(f"z({n}) = ({n} − {m:.6g}) / {s:.6g}" for n, m, s in zip(names, self.x_mean_, self.x_scale_))
+        return f"y [{unit}] = {' '.join(terms)}; {scales}"
+
 
 class EvolvedBPNN(RegressorMixin, BaseEstimator):
     """BPNN whose initial weights come from a population search (GA or PSO-GA), then L-BFGS.

@@ -48,6 +48,29 @@ class Calibration:
     def prediction_minus_applied(self) -> np.ndarray:
         return self.X_full @ self.beta + self.fixed_full
 
+    def equation(self, nuisance_names: list[str] | None = None) -> str:
+        """The calibrated twin: each effect with its fitted parameters, units and 95 % intervals."""
+        n_nuisance = self.beta.size - len(self.names)
+        lines = ["output − applied = Σ offsets + Σ effects, with"]
+        for j, name in enumerate(nuisance_names or [f"nuisance{j}" for j in range(n_nuisance)]):
+            lines.append(f"  {name} = {self.beta[j]:+.6g}")
+        for e in self.composition.effects:
+            values = []
+            for p in e.parameters:
+                v = e.values[p.name]
+                text = f"{p.name} = {v:.6g} {p.unit}"
+                if (e.name, p.name) in self.names:
+                    k = n_nuisance + self.names.index((e.name, p.name))
+                    text += f" ± {1.96 * np.sqrt(max(self.cov[k, k], 0.0)):.2g}"
+                elif (e.name, p.name) in self.nonlinear_ci:
+                    lo, hi = self.nonlinear_ci[(e.name, p.name)]
+                    text += f" [{lo:.4g}, {hi:.4g}]"
+                elif not p.free:
+                    text += " (fixed)"
+                values.append(text)
+            lines.append(f"  {e.name}: {'; '.join(values) or 'no parameters'}")
+        return "\n".join(lines)
+
 
 def _rss_for(problem: Problem, comp: Composition, pinned: frozenset = frozenset()) -> float:
     X, names, fixed, _ = design_matrix(problem, comp, pinned)

@@ -128,6 +128,7 @@ Noise model AR({result['noise_model']['ar_order']}).</p>
 <h2>Test-plan audit: what this data cannot tell apart</h2>{_table(audit, ['effects', 'aliased with / why', 'what would separate them'])}
 <h2>Candidates (best first)</h2>{_table(cands, ['effect', 'family', 'significant', 'ΔBIC', 'p (Bonferroni)', 'held-out gain', 'explained', 'RMS after [mg]', 'grid'])}
 <h2>Parameters (95 % intervals)</h2>{_table(params, ['effect', 'parameter', 'value', 'unit', '95 % CI', 'flag'])}
+<h2>The calibrated twin</h2><pre>{html.escape(d.calibration.equation(d.problem.nuisance_names))}</pre>
 <h2>Ledger: the error step by step</h2>{_table(led, ['time', 'model', 'RMS [mg]', 'held-out [mg]', 'floor [mg]', 'ΔBIC vs previous'])}
 <h2>Where it fails</h2>{_table(seg_rows, ['group', 'value', 'RMS [mg]'])}
 {imgs}
