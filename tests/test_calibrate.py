@@ -153,3 +153,18 @@ def test_only_heating_falls_back_to_interleaved_blocks_and_says_so(tmp_path):
     doc = json.loads((tmp_path / "cal.json").read_text())
     assert doc["imus"][0]["protocol"] == "interleaved blocks"
     assert any("only one thermal direction" in n for n in doc["imus"][0]["validation"]["notes"])
+
+
+def test_compare_three_axes_of_the_tofupilot_log_reports_per_axis_with_orientation_from_the_data(tmp_path):
+    r = run_cli("compare", "scenarios/paper_iis328dq.yaml", str(TOFU), *TOFU_OPTS, "--axes", "x,y,z", "--json", "-",
+                "--report", str(tmp_path / "rep"))
+    assert r.returncode == 0, r.stderr
+    result = json.loads(r.stdout)
+    imu = result["imus"][0]
+    # a board lying on its face: z reads −1 g, x and y read 0 g (gravity projection, found in the data)
+    assert imu["orientation_applied_g"] == {"x": 0.0, "y": 0.0, "z": -1.0}
+    assert set(imu["axes"]) == {"x", "y", "z"}
+    for axis, res in imu["axes"].items():
+        assert res["noise_floor_g"] > 0 and res["rms_residual_g"] >= res["noise_floor_g"]
+        assert (tmp_path / "rep" / f"imu0_{axis}" / "report.html").is_file()
+    assert imu["finding"] and result["finding"].startswith("IMU 0:")
