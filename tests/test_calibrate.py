@@ -168,3 +168,22 @@ def test_compare_three_axes_of_the_tofupilot_log_reports_per_axis_with_orientati
         assert res["noise_floor_g"] > 0 and res["rms_residual_g"] >= res["noise_floor_g"]
         assert (tmp_path / "rep" / f"imu0_{axis}" / "report.html").is_file()
     assert imu["finding"] and result["finding"].startswith("IMU 0:")
+
+
+def test_six_position_log_gives_offset_and_scale_factor_tempcos_and_what_px4_leaves(tmp_path):
+    """The simulated three-axis six-position test (truth: TCSo +120 / −85 / +210 ppm/°C, TCOff
+    +0.5 / −0.3 / +0.8 mg/°C): orientations found in the data, both tempcos per axis with intervals."""
+    h5, cal = tmp_path / "six.h5", tmp_path / "cal.json"
+    assert run_cli("run", "scenarios/six_position_3axis.yaml", "-o", str(h5), "-q").returncode == 0
+    r = run_cli("calibrate", str(h5), "-o", str(cal))
+    assert r.returncode == 0, r.stderr
+    print(r.stdout)
+    imu = json.loads(cal.read_text())["imus"][0]
+    o = imu["orientations"]
+    assert o["kind"] == "six-position" and sorted(o["found"]) == ["+x", "+y", "+z", "-x", "-y", "-z"]
+    for axis, tcso, tcoff in zip("xyz", (120.0, -85.0, 210.0), (0.5, -0.3, 0.8)):
+        s, f = o["tcso_ppm_per_c"][axis], o["tcoff_mg_per_c"][axis]
+        assert abs(s["value"] / tcso - 1) <= 0.05 and s["ci95"][0] <= tcso <= s["ci95"][1]
+        assert abs(f["value"] / tcoff - 1) <= 0.05
+        # the offset-only PX4 method cannot see the scale factor: it leaves more than the six-position fit
+        assert imu["validation"]["heldout_rms_mg"]["px4"][axis] > o["residual_rms_mg"][axis]

@@ -19,6 +19,7 @@ from twin.calibration.lag import make_X
 from twin.calibration.lagaware import LagAwareCompensator
 from twin.calibration.methods import ArduPilotMethod, Px4Method
 from twin.calibration.models import AXES, PolynomialCompensator
+from twin.calibration.orientation import cluster_orientations, detect_static_segments, fit_offset_scale
 from twin.calibration.validate import ValidationResult, validate
 from twin.errors import TwinError
 from twin.firmware import cal_to_dict
@@ -47,6 +48,7 @@ class ImuCalibration:
     protocol: str
     validation: ValidationResult
     fitted: dict  # method name → estimator fitted on every sample
+    orientations: dict | None = None  # several orientations found: which, and offset + scale factor vs T
 
     def heldout_rms_mg(self, method: str) -> np.ndarray:
         """Held-out RMS [mg] per axis of ``method``, pooled over folds and test branches."""
@@ -101,6 +103,12 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     temperature_c = np.concatenate([log.temperature_c for log in logs])
     accel_g = np.concatenate([log.accel_g for log in logs])
     run = np.concatenate([np.full(len(log), k) for k, log in enumerate(logs)])
+    orientations = None
+    if len(logs) == 1:  # several orientations in one log: calibrate offset(T) AND scale factor(T)
+        found = orientation_calibration(time_s, temperature_c, accel_g)
+        if found is not None:
+            orientations, keep, gravity_g = found
+            time_s, temperature_c, accel_g, run = time_s[keep], temperature_c[keep], accel_g[keep] - gravity_g, run[keep]
     run_or_none = run if len(logs) > 1 else None
     first = logs[0]
     models = methods_for(first.instance, first.device_id, extra_methods)
@@ -111,7 +119,38 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     rate = float(1.0 / np.median(np.diff(first.time_s)))
     return ImuCalibration(first.instance, first.device_id, tuple(log.source for log in logs), int(time_s.size),
                           (float(temperature_c.min()), float(temperature_c.max())), rate, protocol.name,
-                          validation, fitted)
+                          validation, fitted, orientations)
+
+
+def orientation_calibration(time_s, temperature_c, accel_g):
+    """Orientations found in a log, and per axis offset(T) and scale factor(T) from its static segments.
+
+    Returns None for a log in one orientation. Otherwise (summary for the document, the static rows,
+    the nominal gravity of each of those rows): the firmware methods and the twin are then fitted on
+    the static rows with gravity removed, so what they leave is the scale factor they do not model.
+    """
+    segments = detect_static_segments(time_s, accel_g, temperature_c)
+    report = cluster_orientations(segments) if segments else None
+    if report is None or len(report.orientations) < 2:
+        return None
+    fit = fit_offset_scale(segments, report, degree=1)
+    keep = np.zeros(len(time_s), bool)
+    gravity = np.zeros((len(time_s), 3))
+    for o in report.orientations:
+        for j in o.segments:
+            keep[segments[j].start:segments[j].stop] = True
+            gravity[segments[j].start:segments[j].stop] = o.nominal_g
+    summary = {
+        "kind": report.kind, "found": list(report.found), "missing": list(report.missing),
+        "static_segments": len(segments), "reference_c": fit.reference_c,
+        "tcso_ppm_per_c": {a: {"value": float(fit.scale_ppm[i, 1]), "ci95": list(map(float, fit.scale_ci95_ppm[i, 1]))}
+                           for i, a in enumerate(AXES)},
+        "tcoff_mg_per_c": {a: {"value": float(fit.offset_mg[i, 1]), "ci95": list(map(float, fit.offset_ci95_mg[i, 1]))}
+                           for i, a in enumerate(AXES)},
+        "zero_g_offset_mg": {a: float(fit.offset_mg[i, 0]) for i, a in enumerate(AXES)},
+        "residual_rms_mg": dict(zip(AXES, map(float, fit.residual_rms_mg))), "notes": list(fit.notes),
+    }
+    return summary, keep, gravity[keep]
 
 
 def file_provenance(paths) -> list[dict]:
@@ -163,6 +202,7 @@ def calibration_json(imus: list[ImuCalibration], inputs: list[dict], version: st
             "temperature_span_c": list(c.temperature_span_c), "sample_rate_hz": c.sample_rate_hz,
             "protocol": c.protocol, "validation": _validation_json(c.validation),
             "recommended": c.recommended(),
+            **({"orientations": c.orientations} if c.orientations else {}),
             "methods": {name: method_json(name, est) for name, est in c.fitted.items()},
         } for c in imus],
     }

@@ -51,6 +51,16 @@ def _print_table(c, axes: list[str]) -> None:
                f"best per axis: {', '.join(f'{a} {v.best_method[i]}' for a, i in zip(axes, idx))}")
     for note in v.notes:
         typer.echo(f"  {note}")
+    o = c.orientations
+    if o:
+        typer.echo(f"  orientations: {o['kind']}, found {' '.join(o['found'])}"
+                   + (f", missing {' '.join(o['missing'])}" if o["missing"] else "")
+                   + "; the methods above were fitted with gravity removed on the static segments")
+        for a in axes:
+            s, f = o["tcso_ppm_per_c"][a], o["tcoff_mg_per_c"][a]
+            typer.echo(f"    {a}: TCSo {s['value']:+.1f} ppm/°C [{s['ci95'][0]:+.1f}, {s['ci95'][1]:+.1f}], "
+                       f"TCOff {f['value']:+.4f} mg/°C [{f['ci95'][0]:+.4f}, {f['ci95'][1]:+.4f}], "
+                       f"residual {o['residual_rms_mg'][a]:.3f} mg (offset + scale factor, segment means)")
 
 
 @app.command()

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.measurement.core import Measurement, MeasurementError, check
+from twin.measurement.imu import ImuLog
 from twin.measurement.registry import ReadOptions, register_reader
 
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
@@ -47,8 +48,27 @@ def sniff_hdf5(path: Path) -> bool:
         return f.read(8) == HDF5_SIGNATURE
 
 
-def _read(path: Path, options: ReadOptions) -> Measurement:
-    return read_dataset_blind(path)  # a twin dataset logs its own orientation and runs: no options apply
+def read_three_axis_blind(path: Path) -> ImuLog:
+    """A three-axis ``twin run`` file (``device.axes``) as an :class:`ImuLog`: logged columns only."""
+    from twin.model.axes import imu_log_fields
+    from twin.model.dataset import read_hdf5
+
+    return ImuLog(**{**imu_log_fields(read_hdf5(path)), "source": str(path)})
+
+
+def _is_three_axis(path: Path) -> bool:
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            return "output/accel_x_g" in f
+    except OSError:
+        return False
+
+
+def _read(path: Path, options: ReadOptions) -> Measurement | ImuLog:
+    # a twin dataset logs its own orientation and runs: no options apply
+    return read_three_axis_blind(path) if _is_three_axis(path) else read_dataset_blind(path)
 
 
 register_reader("hdf5", (".h5", ".hdf5"), _read, sniff=sniff_hdf5,
