@@ -28,6 +28,19 @@ def run_cli(*args: str, cwd: Path | None = None, timeout: float = 300) -> subpro
                           cwd=cwd or ROOT, env=env, timeout=timeout)
 
 
+def assert_one_clear_line(text: str, fragments: list[str]) -> None:
+    """Parsing ``text`` raises a one-line ScenarioError holding every fragment."""
+    from twin.errors import ScenarioError
+    from twin.model.scenario import parse_scenario
+
+    with pytest.raises(ScenarioError) as exc:
+        parse_scenario(text, "<t>")
+    message = str(exc.value)
+    assert "\n" not in message
+    for fragment in fragments:
+        assert fragment in message, message
+
+
 @pytest.fixture(scope="session")
 def paper_path() -> Path:
     return ROOT / "scenarios" / "paper_iis328dq.yaml"
