@@ -212,6 +212,14 @@ def test_benchmark_plugin_errors_are_one_line(tmp_path):
 # ------------------------------------------------------------------- render_sweep closes once
 
 
+def _fake_render(monkeypatch, rd, plotter) -> None:
+    """Render with a fake plotter and no meshes: only the sweep's file handling runs."""
+    monkeypatch.setattr(rd, "_plotter", plotter)
+    monkeypatch.setattr(rd, "_meshes", lambda geometry, fingers: [])
+    monkeypatch.setattr(rd, "_deform", lambda *a: 1.0)
+    monkeypatch.setattr(rd, "_draw", lambda *a: None)
+
+
 def test_render_sweep_closes_the_plotter_once(tmp_path, monkeypatch):
     import twin.reporting.render as rd
 
@@ -234,10 +242,7 @@ def test_render_sweep_closes_the_plotter_once(tmp_path, monkeypatch):
         def close(self):
             closes.append(1)
 
-    monkeypatch.setattr(rd, "_plotter", FakePlotter)
-    monkeypatch.setattr(rd, "_meshes", lambda geometry, fingers: [])
-    monkeypatch.setattr(rd, "_deform", lambda *a: 1.0)
-    monkeypatch.setattr(rd, "_draw", lambda *a: None)
+    _fake_render(monkeypatch, rd, FakePlotter)
     out = rd.render_sweep(None, np.array([20.0, 30.0, 40.0]), tmp_path / "s.gif")
     assert out.read_bytes() == b"frame" * 3
     assert len(closes) == 1
@@ -259,10 +264,7 @@ def test_render_sweep_closes_once_when_a_frame_fails(tmp_path, monkeypatch):
         def close(self):
             closes.append(1)
 
-    monkeypatch.setattr(rd, "_plotter", FailingPlotter)
-    monkeypatch.setattr(rd, "_meshes", lambda geometry, fingers: [])
-    monkeypatch.setattr(rd, "_deform", lambda *a: 1.0)
-    monkeypatch.setattr(rd, "_draw", lambda *a: None)
+    _fake_render(monkeypatch, rd, FailingPlotter)
     with pytest.raises(RuntimeError, match="disk full"):
         rd.render_sweep(None, np.array([20.0]), tmp_path / "s.gif")
     assert len(closes) == 1 and not (tmp_path / "s.gif").exists()

@@ -42,10 +42,9 @@ def untestable_effects(problem: Problem, cal: Calibration, first: list[Candidate
 
     Parameters
     ----------
-    problem : Problem
-    cal : Calibration
+    problem, cal : Problem, Calibration
     first : list of CandidateResult
-        The first screening.
+        The first screening, whose novelty says what the calibrated model already absorbs.
 
     Returns
     -------
@@ -169,10 +168,9 @@ def audit(problem: Problem, cal: Calibration, first: list[CandidateResult]) -> A
 
     Parameters
     ----------
-    problem : Problem
-    cal : Calibration
+    problem, cal : Problem, Calibration
     first : list of CandidateResult
-        The first screening.
+        The first screening (every candidate, before forward selection).
 
     Returns
     -------

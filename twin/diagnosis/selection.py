@@ -75,10 +75,9 @@ def forward_selection(problem: Problem, cal: Calibration, first: list[CandidateR
 
     Parameters
     ----------
-    problem : Problem
-    cal : Calibration
+    problem, cal : Problem, Calibration
     first : list of CandidateResult
-        The first screening.
+        The first screening: the pool the first pick comes from.
     n_tests : int
         Bonferroni count of the first screening, kept for every rescreening.
 
