@@ -78,6 +78,7 @@ def calibrate(
     time_unit: Annotated[Optional[str], typer.Option(help="s, ms, us, min, h")] = None,
     output_unit: Annotated[Optional[str], typer.Option(help="g, mg, m/s^2, digits")] = None,
     no_reverse: Annotated[bool, typer.Option("--no-reverse", help="validate heating→cooling only (not also cooling→heating)")] = False,
+    report: Annotated[Optional[Path], typer.Option("--report", help="write report.html (tables, residual plots, equations) into DIR")] = None,
     json_out: JsonOpt = None,
 ) -> None:
     """Fit the PX4 and ArduPilot methods, a held-out polynomial and the lag-aware twin per IMU;
@@ -93,9 +94,15 @@ def calibrate(
         results = [calibrate_imu(group, reverse=not no_reverse) for _, group in sorted(per.items())]
         doc = calibration_json(results, file_provenance(logs), __version__)
         emit_json(doc, str(output))
+        if report is not None:
+            from twin.calibration.report import write_calibration_report
+
+            write_calibration_report(report, results, per)
     if json_out != "-":
         for c in results:
             _print_table(c, chosen)
+        if report is not None:
+            typer.echo(f"report: {report / 'report.html'}")
         typer.echo(f"wrote {output}; firmware files: twin firmware {output} --format px4|ardupilot|json|c -o FILE")
     emit_json(doc, json_out)
 

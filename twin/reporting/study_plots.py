@@ -160,3 +160,32 @@ class SobolDisplay(Display):
         ax.set_xticks(x, self.factors, rotation=30, fontsize=7)
         ax.set_title(self.response, fontsize=9)
         ax.legend(fontsize=7)
+
+
+@dataclass
+class ResidualByMethodDisplay(Display):
+    """One axis: the residual of each compensation method against temperature, heating and cooling
+    apart (where a method misses a lag or gradient, its two branches split)."""
+
+    axis: str
+    temperature_c: np.ndarray
+    residual_mg: dict  # method → (n,) residual [mg]
+    heating: np.ndarray  # bool per sample
+    noise_floor_mg: float
+    figsize = (7, 3.8)
+
+    @property
+    def title(self) -> str:
+        return f"Axis {self.axis}: residual after each method vs temperature (dots: heating, crosses: cooling)"
+
+    def _draw(self, ax):
+        stride = max(1, self.temperature_c.size // 4000)
+        for k, (method, r) in enumerate(self.residual_mg.items()):
+            for sel, marker in ((self.heating, "."), (~self.heating, "+")):
+                idx = np.flatnonzero(sel)[::stride]
+                ax.plot(self.temperature_c[idx], r[idx], marker, ls="none", ms=2, color=f"C{k}",
+                        label=method if marker == "." else None)
+        ax.axhspan(-2 * self.noise_floor_mg, 2 * self.noise_floor_mg, color="0.85", label="±2σ noise floor")
+        ax.set_xlabel("temperature [°C]")
+        ax.set_ylabel("residual [mg]")
+        ax.legend(fontsize=7, ncol=3)

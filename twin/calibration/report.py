@@ -1,0 +1,64 @@
+"""``twin calibrate --report DIR``: one HTML page per calibration — the held-out table per IMU and
+axis beside the noise floor, the recommendation, each method's equation, and residual plots."""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import numpy as np
+
+from twin.calibration.lag import make_X
+from twin.calibration.models import AXES
+from twin.calibration.workflow import ImuCalibration
+from twin.io import atomic_write_text
+from twin.measurement import ImuLog
+from twin.reporting.plots import png_base64
+from twin.reporting.study_plots import ResidualByMethodDisplay
+
+
+def _table(c: ImuCalibration) -> str:
+    v = c.validation
+    head = "<tr><th>fold: test</th><th>method</th>" + "".join(f"<th>{a} [mg]</th>" for a in AXES) + \
+           "<th>extrapolated</th></tr>"
+    rows = "".join(f"<tr><td>{html.escape(s.fold)}: {html.escape(s.test)}</td><td>{s.method}</td>"
+                   + "".join(f"<td>{x:.3f}</td>" for x in s.rms_mg) + f"<td>{100 * s.extrapolated_fraction:.0f} %</td></tr>"
+                   for s in v.scores)
+    floor = "<tr><td colspan=2>noise floor</td>" + "".join(f"<td>{x:.3f}</td>" for x in v.noise_floor_mg) + "<td></td></tr>"
+    return f"<table>{head}{rows}{floor}</table>"
+
+
+def write_calibration_report(directory: Path, calibrations: list[ImuCalibration], logs: dict[int, list[ImuLog]]) -> Path:
+    """Write ``report.html`` into ``directory``; ``logs``: each IMU instance's logs, as calibrated."""
+    parts = []
+    for c in calibrations:
+        data = logs[c.instance]
+        time_s = np.concatenate([log.time_s for log in data])
+        temp = np.concatenate([log.temperature_c for log in data])
+        accel = np.concatenate([log.accel_g for log in data])
+        run = np.concatenate([np.full(len(log), k) for k, log in enumerate(data)]) if len(data) > 1 else None
+        X = make_X(time_s, temp, run)
+        heating = np.gradient(temp) > 0
+        parts.append(f"<h2>IMU {c.instance} (device_id {c.device_id}), {c.samples} samples, "
+                     f"{c.temperature_span_c[0]:.1f}…{c.temperature_span_c[1]:.1f} °C — {html.escape(c.protocol)}</h2>")
+        parts.append(f"<p>Recommended: {html.escape(str(c.recommended()))}; best per axis: "
+                     f"{html.escape(', '.join(f'{a} {m}' for a, m in zip(AXES, c.validation.best_method)))}</p>")
+        parts.append(_table(c))
+        parts.extend(f"<p>{html.escape(n)}</p>" for n in c.validation.notes)
+        if c.orientations:
+            parts.append(f"<p>Orientations: {html.escape(c.orientations['kind'])}, found "
+                         f"{' '.join(c.orientations['found'])}; the residual plots are skipped (gravity moves between axes).</p>")
+        else:
+            residual = {m: (accel - est.predict(X)) * 1e3 for m, est in c.fitted.items()}
+            for i, a in enumerate(AXES):
+                disp = ResidualByMethodDisplay(a, temp, {m: r[:, i] for m, r in residual.items()}, heating,
+                                               c.validation.noise_floor_mg[i])
+                parts.append(f"<h3>{html.escape(disp.title)}</h3><img src='data:image/png;base64,{png_base64(disp.plot())}'>")
+        parts.extend(f"<h3>{m}</h3><pre>{html.escape(est.equation())}</pre>" for m, est in c.fitted.items()
+                     if hasattr(est, "equation"))
+    page = ("<!doctype html><html><head><meta charset='utf-8'><title>twin calibrate</title><style>"
+            "body{font-family:sans-serif;max-width:1100px;margin:auto} td,th{border:1px solid #ccc;padding:2px 6px;"
+            "font-size:13px}</style></head><body><h1>Temperature calibration, validated on held-out data</h1>"
+            + "".join(parts) + "</body></html>")
+    directory.mkdir(parents=True, exist_ok=True)
+    return atomic_write_text(directory / "report.html", page)
