@@ -6,6 +6,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 TWIN   := $(VENV)/bin/twin
 STAMP  := $(VENV)/.installed
+TOFU   := ../shared/data/real/tofupilot_imu_thermal/imu_raw_data.tsv
 
 .PHONY: run test install bench clean
 
@@ -35,6 +36,11 @@ run: $(STAMP)
 	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/base.json
 	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/after.json \
 		--with-effect $$($(PY) -c "import json; print(json.load(open('out/compare/base.json'))['candidates'][0]['effect'])")
+	# a real three-axis log to a validated compensation and the file PX4 loads (when ../shared is beside us)
+	if [ -f $(TOFU) ]; then \
+		$(TWIN) calibrate $(TOFU) --time-col timestamp --time-unit us --temperature-col imu.temperature \
+			--x-col imu.acc.x --y-col imu.acc.y --z-col imu.acc.z --output-unit m/s^2 -o out/tofu_cal.json --report out/tofu_cal && \
+		$(TWIN) firmware out/tofu_cal.json --format px4 -o out/tofu_tc.params; fi
 	# the paper's compensation benchmark, short version (make bench runs the full one)
 	$(TWIN) benchmark scenarios/paper_iis328dq.yaml --quick --seeds 1 --json out/benchmark_quick.json
 
@@ -47,6 +53,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_render.py --json out/bench_render.json
 	$(PY) benchmarks/bench_effects.py --json out/bench_effects.json
 	$(PY) benchmarks/bench_compare.py --json out/bench_compare.json
+	$(PY) benchmarks/bench_calibrate.py --json out/bench_calibrate.json
 	$(PY) benchmarks/bench_diagnosis.py --seeds 200 --json out/bench_diagnosis.json
 	$(PY) benchmarks/bench_fitting.py --json out/bench_fitting.json
 	$(TWIN) benchmark scenarios/paper_iis328dq.yaml --seeds 3 --json out/benchmark.json --report out/benchmark
