@@ -189,3 +189,11 @@ def test_six_position_log_gives_offset_and_scale_factor_tempcos_and_what_px4_lea
         assert abs(f["value"] / tcoff - 1) <= 0.05
         # the offset-only PX4 method cannot see the scale factor: it leaves more than the six-position fit
         assert imu["validation"]["heldout_rms_mg"]["px4"][axis] > o["residual_rms_mg"][axis]
+
+
+def test_outputs_in_new_folders_are_created_and_an_output_over_an_input_is_refused(ulog_cal, tmp_path):
+    log, cal, _ = ulog_cal
+    out = tmp_path / "new" / "deeper" / "tc.params"
+    assert run_cli("firmware", str(cal), "--format", "px4", "-o", str(out)).returncode == 0 and out.is_file()
+    err = _one_line_error(run_cli("firmware", str(cal), "--format", "px4", "-o", str(cal)))
+    assert "would overwrite an input" in err

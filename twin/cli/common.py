@@ -48,7 +48,7 @@ def emit_json(result: dict, dest: str | None) -> None:
 
 
 def check_outputs(inputs, outputs) -> None:
-    """Refuse an output that is one of the inputs, a directory, or in a folder that does not exist."""
+    """Refuse an output that is one of the inputs or a directory (missing folders are created)."""
     resolved = {Path(p).resolve() for p in inputs if p is not None}
     for out in outputs:
         if out is None or str(out) == "-":
@@ -58,8 +58,6 @@ def check_outputs(inputs, outputs) -> None:
             raise TwinError(f"{out}: the output would overwrite an input; choose another path")
         if out.is_dir():
             raise TwinError(f"{out}: is a directory; expected a file path")
-        if not out.resolve().parent.is_dir():
-            raise TwinError(f"{out}: folder {out.parent} does not exist")
 
 
 @contextmanager
