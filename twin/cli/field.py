@@ -156,8 +156,7 @@ def apply(
         imu_log = next((x for x in logs if target is None or x.instance == target), None)
         if imu_log is None:
             raise TwinError(f"{log}: no IMU instance {target}; the log holds {[x.instance for x in logs]}")
-        entry = imu_entry(doc, imu_log.instance if imu is None and len(doc["imus"]) > 1 else target,
-                          imu_log.device_id, str(calibration))
+        entry = imu_entry(doc, imu_log.instance, imu_log.device_id, str(calibration))
         name, data = method_entry(entry, method, "c")
         corrected = imu_log.accel_g - correction_g(data, imu_log.time_s, imu_log.temperature_c)
         span = entry["temperature_span_c"]
@@ -165,8 +164,11 @@ def apply(
         result = {"output": str(output), "method": name, "instance": imu_log.instance, "rows": len(imu_log),
                   "extrapolated_fraction": outside}
         if applied_g is not None:
-            truth = [float(v) for v in applied_g.split(",")] if "," in applied_g else None
-            if truth is None or len(truth) != 3:
+            try:
+                truth = [float(v) for v in applied_g.split(",")]
+            except ValueError:
+                truth = []
+            if len(truth) != 3 or not np.all(np.isfinite(truth)):
                 raise TwinError(f"--applied-g expects 'gx,gy,gz' in g, got {applied_g!r}")
             res = corrected - np.asarray(truth) - np.median(corrected - np.asarray(truth), axis=0)
             raw = imu_log.accel_g - np.median(imu_log.accel_g, axis=0)
