@@ -13,7 +13,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from conftest import ROOT, run_cli  # noqa: E402
+from conftest import run_cli  # noqa: E402
 
 GOLDEN = HERE / "golden"
 # Keys whose values change from run to run by design: clocks, timings, versions, paths.
