@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.calibration.lag import lagged_c, make_X
+from twin.calibration.lag import as_log, lagged_c, make_X
 from twin.calibration.workflow import SCHEMA, SCHEMA_VERSION
 from twin.errors import TwinError
 from twin.firmware import (
@@ -83,20 +83,18 @@ def _firmware_cal(data: dict, name: str):
 
 
 def correction_g(data: dict, time_s, temperature_c, run=None) -> np.ndarray:
-    """What a method subtracts from the reading [g], (n, 3), zero-mean level kept.
+    """What a method subtracts from the reading [g], (n, 3).
 
     Firmware polynomials give the firmware's own offset; the lag-aware twin gives its modelled
-    drift minus its level (the constant the ordinary accelerometer calibration owns).
+    drift minus its level (the constant the ordinary accelerometer calibration owns). A polynomial
+    without lags (``tau_die_s`` absent) is evaluated in the raw temperature.
     """
     T = np.asarray(temperature_c, float)
     if data.get("kind") == "firmware":
         return _firmware_cal(data, "firmware").offset_m_s2(T) / G0_M_S2
     coef = np.asarray(data["coef_mg"], float)
     out = np.empty((T.size, coef.shape[0]))
-    log_X = make_X(np.asarray(time_s, float), T, run)
-    from twin.calibration.lag import as_log
-
-    log = as_log(log_X)
+    log = as_log(make_X(np.asarray(time_s, float), T, run))
     tau_die = data.get("tau_die_s")
     for a in range(coef.shape[0]):
         arg = (lagged_c(log, tau_die[a]) if tau_die is not None else T) - data["reference_c"]
