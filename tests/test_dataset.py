@@ -115,3 +115,22 @@ def test_cli_test_design_json():
     assert r.returncode == 0
     items = {i["name"]: i["value"] for i in json.loads(r.stdout)["items"]}
     assert items["eq34_control_interval"] == pytest.approx(0.4375)
+
+
+@pytest.mark.parametrize("args", [["run", "{s}", "-o", "{s}"], ["run", "{s}", "--json", "{s}"]])
+def test_an_output_over_the_input_is_refused_and_the_input_kept(tmp_path, args):
+    s = tmp_path / "s.yaml"
+    text = (ROOT / "scenarios" / "hidden_none.yaml").read_text()
+    s.write_text(text)
+    r = run_cli(*[a.format(s=s) for a in args])
+    assert r.returncode == 2 and "would overwrite an input" in r.stderr and r.stderr.count("\n") == 1
+    assert s.read_text() == text
+
+
+def test_infinite_or_nan_numbers_in_a_scenario_are_refused_at_their_key(tmp_path):
+    for value in (".inf", ".nan", "-.inf"):
+        s = tmp_path / "s.yaml"
+        s.write_text(f"program:\n  start_c: 25\n  steps: [{{type: hold, dwell_s: {value}}}]\n")
+        r = run_cli("run", str(s), "-o", str(tmp_path / "x.h5"))
+        assert r.returncode == 2 and "s.yaml:3: program.steps[0].dwell_s" in r.stderr and "finite" in r.stderr
+        assert "Traceback" not in r.stderr and not (tmp_path / "x.h5").exists()

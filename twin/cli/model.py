@@ -9,7 +9,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from twin.cli.common import JsonOpt, app, emit_json, fail
+from twin.cli.common import JsonOpt, app, check_outputs, emit_json, fail
 from twin.errors import TwinError
 
 
@@ -31,6 +31,7 @@ def run(
     try:
         loaded = load_scenario(scenario)
         out = output or (Path(loaded.scenario.output.path) if loaded.scenario.output.path else scenario.with_suffix(".h5"))
+        check_outputs([scenario], [out, None if json_out == "-" else json_out])
         # tqdm disables itself when stderr is not a terminal (logs, CI).
         with tqdm(total=len(STAGES) + 1, desc="simulate", unit="stage", disable=True if quiet else None,
                   leave=False, file=sys.stderr) as bar:
@@ -237,6 +238,7 @@ def export(
     from twin.measurement import read_dataset_blind, write_canonical_csv
 
     try:
+        check_outputs([dataset], [output, None if json_out == "-" else json_out])
         m = read_dataset_blind(dataset)
         write_canonical_csv(output, m.time_s, m.temperature_c, m.output_g, m.applied_g, m.run_index, m.power_on)
     except TwinError as exc:
