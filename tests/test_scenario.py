@@ -199,3 +199,18 @@ def test_dataset_layout_is_documented():
 
     doc = (ROOT / "docs" / "dataset.md").read_text()
     assert [p for p in LAYOUT if f"`{p}`" not in doc] == []
+
+
+@pytest.mark.parametrize("text,expected", [
+    ("a: &a [*a]\n", "alias *a refers to the collection that contains it"),
+    ("a: " + "[" * 2000 + "]" * 2000 + "\n", "nested deeper than 64 levels"),
+    ("\n".join(["a0: &a0 [x, x, x, x, x, x, x, x, x, x]"] + [f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 10) + "]"
+                                                          for i in range(1, 9)]) + "\n",
+     "more than 200000 values once its aliases are expanded"),
+])
+def test_hostile_yaml_is_refused_before_it_is_built(tmp_path, text, expected):
+    """A self-referencing anchor, 2,000-deep nesting and a billion-laughs file: one line, exit 2, fast."""
+    s = tmp_path / "s.yaml"
+    s.write_text(text)
+    r = run_cli("run", str(s), "-o", str(tmp_path / "x.h5"), timeout=60)
+    assert r.returncode == 2 and expected in r.stderr and r.stderr.count("\n") == 1, r.stderr

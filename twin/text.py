@@ -81,11 +81,55 @@ def where(path: str, lines: dict[tuple, int], loc: tuple) -> str:
     return path
 
 
+# a scenario or study is a few levels deep with a handful of anchors: far beyond these is an attack
+# (billion laughs, self-reference) or a generated file gone wrong, refused before anything is built
+MAX_YAML_DEPTH = 64
+MAX_YAML_NODES = 200_000  # after alias expansion
+
+
+def check_yaml_limits(text: str, path: str) -> None:
+    """Refuse YAML nested deeper than :data:`MAX_YAML_DEPTH`, larger than :data:`MAX_YAML_NODES`
+    once aliases are expanded, or with an alias to a collection still open (a self-reference)."""
+    sizes: dict[str, int] = {}
+    stack: list[list] = [[None, 0]]  # per open collection: its anchor, its expanded node count
+    try:
+        for event in yaml.parse(text, Loader=yaml.SafeLoader):
+            line = event.start_mark.line + 1
+            if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+                stack.append([event.anchor, 1])
+                if len(stack) - 1 > MAX_YAML_DEPTH:
+                    raise ScenarioError(f"{path}:{line}: YAML nested deeper than {MAX_YAML_DEPTH} levels; "
+                                        "expected a plain mapping")
+                continue
+            if isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+                anchor, count = stack.pop()
+                if anchor is not None:
+                    sizes[anchor] = count
+            elif isinstance(event, yaml.AliasEvent):
+                if any(event.anchor == a for a, _ in stack):
+                    raise ScenarioError(f"{path}:{line}: alias *{event.anchor} refers to the collection that "
+                                        "contains it; expected a finite document")
+                count = sizes.get(event.anchor, 1)
+            elif isinstance(event, yaml.ScalarEvent):
+                count = 1
+                if event.anchor is not None:
+                    sizes[event.anchor] = 1
+            else:
+                continue
+            stack[-1][1] += count
+            if stack[-1][1] > MAX_YAML_NODES:
+                raise ScenarioError(f"{path}:{line}: more than {MAX_YAML_NODES} values once its aliases are "
+                                    "expanded; expected a plain document")
+    except yaml.YAMLError:
+        return  # the parser's own message comes from safe_load, with its line
+
+
 def load_yaml_mapping(text: str, path: str, what: str) -> tuple[dict, dict[tuple, int]]:
     """Parse YAML that must be a mapping; return it with its key-path → line map.
 
     Raises :class:`ScenarioError` with ``path:line: malformed YAML: ...`` or ``path: <what>, got list``.
     """
+    check_yaml_limits(text, path)
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
