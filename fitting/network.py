@@ -66,7 +66,9 @@ def population_mse(theta, X, y, hidden: int, activation: str = "tanh", chunk: in
         W2 = theta[:, i + hidden : i + 2 * hidden].unsqueeze(1).contiguous()  # (P, 1, h)
         b2 = theta[:, -1:]
         XT = X.T.contiguous()
-        act = {"tanh": torch.tanh_, "relu": torch.relu_, "sigmoid": torch.sigmoid_}[activation]
+        if activation == "tanh":  # tanh(z) = 2σ(2z) − 1, folded into the weights: see tanh_as_sigmoid
+            W1, b1, W2, b2 = tanh_as_sigmoid(W1, b1, W2, b2)
+        act = {"tanh": torch.sigmoid_, "relu": torch.relu_, "sigmoid": torch.sigmoid_}[activation]
         sse = torch.zeros(P, dtype=torch.float64)
         work = torch.empty(P * hidden * min(chunk, X.shape[0]), dtype=X.dtype)
         for a in range(0, X.shape[0], chunk):
@@ -78,6 +80,26 @@ def population_mse(theta, X, y, hidden: int, activation: str = "tanh", chunk: in
             err.add_(b2).sub_(y[a : a + c])
             sse += torch.linalg.vecdot(err, err).to(torch.float64)
     return sse / X.shape[0]
+
+
+def tanh_as_sigmoid(W1, b1, W2, b2):
+    """Weights of the sigmoid network equal to a tanh network, from tanh(z) = 2σ(2z) − 1.
+
+    Hidden: 2(W1 x + b1); output: (2 W2)·σ + (b2 − Σ W2). Exact in real arithmetic; in float32 the
+    MSE agrees with torch.tanh's to ~1e-6 relative (tested). Why: a vendor's tanh can run at a
+    fraction of its sigmoid's speed (0.43 vs 1.57 G elements/s in place on this machine's CPU), and
+    this form makes the kernel's speed independent of it with no extra elementwise pass.
+
+    Parameters
+    ----------
+    W1 : (P·h, d) tensor, b1 : (P·h, 1), W2 : (P, 1, h), b2 : (P, 1)
+
+    Returns
+    -------
+    tuple of tensors
+        ``(W1', b1', W2', b2')`` in the same shapes.
+    """
+    return 2 * W1, 2 * b1, 2 * W2, b2 - W2.sum(dim=2)
 
 
 def _derivative_from_output(torch, name: str, A):
