@@ -12,6 +12,7 @@ repo ArduPilot/ardupilot). :class:`ClampedPolynomial` is that shape, in float64.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from importlib.metadata import PackageNotFoundError, version
 
 import numpy as np
 
@@ -109,3 +110,11 @@ def c_float(value: float) -> str:
     if not any(ch in text for ch in ".e"):
         text += ".0"
     return text + "f"
+
+
+def generator_name() -> str:
+    """``tde-twin X.Y.Z`` for the comment heading a generated file (no version in a source tree)."""
+    try:
+        return f"tde-twin {version('tde-twin')}"
+    except PackageNotFoundError:
+        return "tde-twin"
