@@ -15,25 +15,6 @@ from twin.errors import TwinError
 AXES_HELP = "axes to calibrate, comma-separated (default x,y,z)"
 
 
-def _imu_logs(logs: list[Path], cmap, imu: str) -> dict:
-    """IMU instance → its logs (several files = several runs), filtered by ``--imu``."""
-    from twin.measurement import read_imu_logs
-
-    per: dict[int, list] = {}
-    for path in logs:
-        for log in read_imu_logs(path, cmap):
-            per.setdefault(log.instance, []).append(log)
-    if imu != "all":
-        try:
-            n = int(imu)
-        except ValueError:
-            raise TwinError(f"--imu expects an instance number or 'all', got {imu!r}") from None
-        if n not in per:
-            raise TwinError(f"{', '.join(map(str, logs))}: no IMU instance {n}; the log holds instances {sorted(per)}")
-        per = {n: per[n]}
-    return per
-
-
 def _print_table(c, axes: list[str]) -> None:
     v = c.validation
     idx = [("x", "y", "z").index(a) for a in axes]
@@ -85,12 +66,13 @@ def calibrate(
     validate each on data it was not fitted on (heating vs cooling, or leave one run out)."""
     from twin import __version__
     from twin.calibration.workflow import calibrate_imu, calibration_json, file_provenance
+    from twin.measurement import imu_logs_by_instance
 
     with guard(inputs=logs + ([columns] if columns else []), outputs=[output]):
         chosen = parse_axes(axes)
         cmap = column_map(columns, time=time_col, temperature=temperature_col, x=x_col, y=y_col, z=z_col,
                           time_unit=time_unit, output_unit=output_unit)
-        per = _imu_logs(logs, cmap, imu)
+        per = imu_logs_by_instance(logs, cmap, imu)
         results = [calibrate_imu(group, reverse=not no_reverse) for _, group in sorted(per.items())]
         doc = calibration_json(results, file_provenance(logs), __version__)
         emit_json(doc, str(output))

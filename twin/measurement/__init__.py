@@ -26,6 +26,7 @@ from twin.measurement.registry import (
     find_reader,
     load_measurements,
     load_reader_plugin,
+    imu_logs_by_instance,
     read_imu_logs,
     readers,
     register_reader,
@@ -35,5 +36,5 @@ from twin.measurement.ulog import read_ulog  # noqa: E402  (registers "ulog")
 
 __all__ = ["STANDARD_GRAVITY", "ColumnMap", "ImuLog", "Measurement", "MeasurementError", "ReadOptions", "Reader",
            "check", "concatenate", "find_reader", "from_dataset", "load_measurements", "load_reader_plugin",
-           "read_dataflash", "read_dataset_blind", "read_imu_logs", "read_table", "read_table_imu", "read_ulog",
+           "read_dataflash", "read_dataset_blind", "imu_logs_by_instance", "read_imu_logs", "read_table", "read_table_imu", "read_ulog",
            "readers", "register_reader", "unregister_reader", "usable_for_calibration", "write_canonical_csv"]

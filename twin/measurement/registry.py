@@ -212,6 +212,26 @@ def read_imu_logs(path: str | Path, cmap: ColumnMap | None = None, *, skip_bad_r
     return as_imu_logs(read_any(path, ReadOptions(cmap, skip_bad_rows, None)), path)
 
 
+def imu_logs_by_instance(paths, cmap: ColumnMap | None = None, imu: str | int | None = "all", *,
+                         skip_bad_rows: bool = False) -> dict[int, list[ImuLog]]:
+    """IMU instance → its logs over ``paths`` (several files = several runs of one IMU), all
+    instances or the one ``imu`` names; an instance the logs lack is an error naming those they hold."""
+    per: dict[int, list[ImuLog]] = {}
+    for path in paths:
+        for log in read_imu_logs(path, cmap, skip_bad_rows=skip_bad_rows):
+            per.setdefault(log.instance, []).append(log)
+    if imu in (None, "all"):
+        return per
+    try:
+        n = int(imu)
+    except ValueError:
+        raise MeasurementError(f"--imu expects an instance number or 'all', got {imu!r}") from None
+    if n not in per:
+        raise MeasurementError(f"{', '.join(map(str, paths))}: no IMU instance {n}; the log holds instances "
+                               f"{sorted(per)}")
+    return {n: per[n]}
+
+
 def require_signature(path: Path, signature: bytes, what: str) -> None:
     """Fail in one line unless ``path`` exists, is not empty and starts with ``signature``."""
     if not path.is_file():

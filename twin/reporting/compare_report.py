@@ -17,7 +17,6 @@ from pathlib import Path
 import numpy as np
 
 from twin.diagnosis.diagnose import Diagnosis
-from twin.measurement import MeasurementError
 from twin.io import atomic_write_text
 
 LEDGER = "ledger.jsonl"
@@ -154,7 +153,7 @@ def run_compare(scenario: Path, measurements: list[Path], cmap, with_effects: li
     (``"all"`` or an instance number), each with its report in ``REPORT/imu{n}_{axis}``."""
     from twin.diagnosis.axes import compare_imu
     from twin.diagnosis.compare import compare_measurement
-    from twin.measurement import load_measurements, read_imu_logs
+    from twin.measurement import imu_logs_by_instance, load_measurements
     from twin.model.scenario import load_scenario
 
     loaded = load_scenario(scenario)
@@ -165,17 +164,10 @@ def run_compare(scenario: Path, measurements: list[Path], cmap, with_effects: li
         d, result = compare_measurement(loaded, m, with_effects, average_s)
         _ledger(ledger_dir, report, d, result, f"twin compare: {names}")
         return result
-    per_instance: dict[int, list] = {}
-    for path in measurements:
-        for log in read_imu_logs(path, cmap, skip_bad_rows=skip_bad_rows):
-            per_instance.setdefault(log.instance, []).append(log)
-    if imu not in (None, "all"):
-        if int(imu) not in per_instance:
-            raise MeasurementError(f"{names}: no IMU instance {imu}; the log holds instances {sorted(per_instance)}")
-        per_instance = {int(imu): per_instance[int(imu)]}
+    per_instance = imu_logs_by_instance(measurements, cmap, imu, skip_bad_rows=skip_bad_rows)
     out = []
     for instance, logs in sorted(per_instance.items()):
-        joint = compare_imu(loaded, logs, axes, with_effects, average_s, None if applied == 1.0 else applied)
+        joint = compare_imu(loaded, logs, axes, with_effects, average_s, applied)
         for axis, d in joint.diagnoses.items():
             sub = lambda base: None if base is None else base / f"imu{instance}_{axis}"  # noqa: E731
             _ledger(sub(ledger_dir), sub(report), d, joint.results[axis], f"twin compare: {names}, IMU {instance} {axis}")
