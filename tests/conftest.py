@@ -12,6 +12,18 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted(p for p in (ROOT / "scenarios").glob("*.yaml") if not p.stem.startswith("study_"))  # studies: test_doe
 SHARED = ROOT.parent / "shared"
 
+try:  # property-based tests: a fixed, derandomised budget in CI; HYPOTHESIS_PROFILE=long locally
+    from hypothesis import HealthCheck, settings
+
+    _QUIET = [HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.function_scoped_fixture]
+    settings.register_profile("ci", derandomize=True, deadline=None, max_examples=60,
+                              suppress_health_check=_QUIET, print_blob=True)
+    settings.register_profile("long", deadline=None, max_examples=20_000, suppress_health_check=_QUIET,
+                              print_blob=True)
+    settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+except ImportError:  # hypothesis is a test extra; the property tests skip without it
+    pass
+
 
 def coarse_text(path: Path, rate_hz: float = 0.5, max_cycles: int = 1) -> str:
     """The scenario at a coarse logger rate and at most ``max_cycles`` cycles (for fast tests)."""

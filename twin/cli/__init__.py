@@ -7,13 +7,15 @@ never a traceback; outputs are written atomically and never over an input.
 
 from __future__ import annotations
 
+import os
 import sys
+import traceback
 from typing import Annotated
 
 import typer
 from typer.exceptions import TyperException
 
-from twin.cli import diagnosis, field, model, studies  # noqa: F401  (each registers its commands)
+from twin.cli import diagnosis, field, fleet, model, package, studies  # noqa: F401  (each registers its commands)
 from twin.cli.common import app
 
 
@@ -28,8 +30,21 @@ def _version(value: bool) -> None:
 @app.callback()
 def _root(
     version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True, help="print the version")] = False,
+    debug: Annotated[bool, typer.Option("--debug", help="print the traceback of an internal error (also TWIN_DEBUG=1)")] = False,
 ) -> None:
     """Digital twin of the temperature drift error (TDE) of MEMS accelerometers."""
+    if debug:
+        os.environ["TWIN_DEBUG"] = "1"
+
+
+def _internal_error(exc: BaseException) -> None:
+    """An error of ours, not of the input: exit 1 with one line; the traceback only when asked."""
+    if os.environ.get("TWIN_DEBUG", "") not in ("", "0"):
+        traceback.print_exception(exc)
+    detail = " ".join(str(exc).split())[:300]
+    typer.echo(f"twin: internal error: {type(exc).__name__}: {detail} (rerun with --debug for the traceback)",
+               err=True)
+    sys.exit(1)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -49,4 +64,9 @@ def main(argv: list[str] | None = None) -> None:
         hint = f" (see 'twin {ctx.info_name} --help')" if ctx is not None and ctx.parent is not None else ""
         typer.echo(f"twin: error: {' '.join(exc.format_message().split())}{hint}", err=True)
         sys.exit(2)
+    except MemoryError:
+        typer.echo("twin: error: out of memory; shorten the run or lower its sample rate", err=True)
+        sys.exit(2)
+    except Exception as exc:  # noqa: BLE001  (the last line of defence: never a bare traceback)
+        _internal_error(exc)
     sys.exit(code if isinstance(code, int) else 0)

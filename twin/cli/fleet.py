@@ -1,0 +1,3 @@
+"""``twin fleet``: compare (and calibrate) over many units' logs, locally or on Dask."""
+
+from __future__ import annotations
