@@ -8,6 +8,7 @@ never a traceback; outputs are written atomically and never over an input.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import traceback
 from typing import Annotated
@@ -49,6 +50,8 @@ def _internal_error(exc: BaseException) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     """Console entry point: usage errors and our errors exit 2 with one line."""
+    if hasattr(signal, "SIGXFSZ"):  # a file-size limit: a write then fails with EFBIG (one line), not a kill
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
         code = app(args=argv, standalone_mode=False)  # returns a command's exit code (typer.Exit)
     except typer.Exit as exc:
