@@ -111,13 +111,19 @@ def compile_program(start_c: float, steps: list[Step], cycles: int = 1) -> Chamb
     Raises
     ------
     ProgramError
-        A non-positive dwell or step time, a zero step, or a ramp whose signed rate points away
+        A non-finite number, a non-positive dwell or step time, a zero step, or a ramp whose signed rate points away
         from its target (it would never get there). ``steps[i]`` in the message is zero-based.
     """
     if cycles < 1:
         raise ProgramError(f"cycles must be >= 1, got {cycles}")
     if not steps:
         raise ProgramError("program has no steps")
+    if not math.isfinite(start_c):
+        raise ProgramError(f"start_c must be a finite temperature, got {start_c}")
+    for i, step in enumerate(steps):  # NaN passes every "> 0" test the wrong way: refuse it first
+        for name, v in vars(step).items():
+            if v is not None and not math.isfinite(v):
+                raise ProgramError(f"steps[{i}].{name} must be finite, got {v}", i)
     segments: list[Segment] = []
     t, temp = 0.0, float(start_c)
     for cycle in range(cycles):

@@ -32,6 +32,44 @@ def atomic_path(path: Path, suffix: str = ".tmp"):
         raise
 
 
+def atomic_write_bytes(path: Path, data: bytes) -> Path:
+    """Write ``data`` to a temporary file beside ``path``, then rename it into place; a failure
+    (full disk, file-size limit, read-only folder) raises ``OSError`` and leaves no file behind."""
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as f:
+            f.write(data)
+    return Path(path)
+
+
+@contextmanager
+def atomic_hdf5(path: Path):
+    """Yield a new HDF5 file built in memory; on success its image is written atomically to ``path``.
+
+    The HDF5 C library never writes to disk here, so a full disk or a file-size limit is an
+    ``OSError`` of Python's own write (one line), not a crash inside the library.
+    """
+    import h5py
+
+    path = Path(path)
+    with h5py.File(f"<memory {path.name}>", "w", driver="core", backing_store=False) as f:
+        yield f
+        f.flush()
+        image = f.id.get_file_image()
+    atomic_write_bytes(path, image)
+
+
+def remove_stale_temporaries(folder: Path, names) -> list[Path]:
+    """Remove the temporary files (``.NAME.*.tmp``) that a killed writer of ``names`` left in ``folder``."""
+    removed = []
+    folder = Path(folder)
+    if folder.is_dir():
+        for name in names:
+            for tmp in folder.glob(f".{name}.*.tmp"):
+                tmp.unlink(missing_ok=True)
+                removed.append(tmp)
+    return removed
+
+
 def atomic_write_text(path: Path, text: str) -> Path:
     """Write ``text`` to a temporary file beside ``path``, then rename it into place."""
     with atomic_path(path) as tmp:

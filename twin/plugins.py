@@ -27,6 +27,10 @@ def import_plugin(spec: str, base_dir: str | Path = ".", error: type[TwinError] 
             return importlib.import_module(spec)
         except ImportError as exc:
             raise error(f"plugin module {spec!r} cannot be imported: {exc}") from None
+        except TwinError:
+            raise
+        except (Exception, SystemExit) as exc:  # its own failure while loading, named in one line
+            raise error(f"plugin module {spec!r} failed to load: {type(exc).__name__}: {exc}") from None
     path = Path(spec)
     path = path if path.is_absolute() else Path(base_dir) / path
     if not path.is_file():
@@ -44,7 +48,7 @@ def import_plugin(spec: str, base_dir: str | Path = ".", error: type[TwinError] 
         raise
     except (Exception, SystemExit) as exc:  # a plugin's own failure, named in one line
         del sys.modules[mod_name]
-        raise error(f"plugin {path} failed to load: {type(exc).__name__}: {exc}") from None
+        raise error(f"plugin {path} failed to load: {type(exc).__name__}: {' '.join(str(exc).split())[:200]}") from None
     return module
 
 

@@ -44,7 +44,12 @@ def emit_json(result: dict, dest: str | None) -> None:
         return
     from twin.io import atomic_write_text
 
-    atomic_write_text(Path(dest), text)
+    if Path(dest).is_dir():
+        fail(f"--json {dest}: is a directory; expected a file path")
+    try:
+        atomic_write_text(Path(dest), text)
+    except OSError as exc:  # a full disk, a read-only folder, a parent that is a file: one line
+        fail(f"cannot write --json {dest}: {exc.strerror or exc}")
 
 
 def check_outputs(inputs, outputs) -> None:
@@ -58,6 +63,9 @@ def check_outputs(inputs, outputs) -> None:
             raise TwinError(f"{out}: the output would overwrite an input; choose another path")
         if out.is_dir():
             raise TwinError(f"{out}: is a directory; expected a file path")
+        blocked = next((p for p in out.parents if p.exists() and not p.is_dir()), None)
+        if blocked is not None:  # found now, before anything is written
+            raise TwinError(f"{out}: {blocked} is a file, not a folder; expected a path in a folder")
 
 
 @contextmanager

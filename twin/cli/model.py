@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Annotated, Optional
@@ -28,6 +29,7 @@ def run(
     from twin.model.scenario import load_scenario
     from twin.model.simulate import STAGES, simulate, summary
 
+    out = output
     try:
         loaded = load_scenario(scenario)
         out = output or (Path(loaded.scenario.output.path) if loaded.scenario.output.path else scenario.with_suffix(".h5"))
@@ -48,6 +50,8 @@ def run(
         fail(str(exc))
     except OSError as exc:
         fail(f"cannot write {out}: {exc.strerror or exc}")
+    except MemoryError:
+        fail(f"{scenario}: out of memory while simulating; shorten the program or lower test_plan.logger_rate_hz")
     result = {"output": str(out), **summary(ds)}
     if not quiet and json_out != "-":
         typer.echo(
@@ -71,7 +75,11 @@ def schema(
     if output is not None:
         from twin.io import atomic_write_text
 
-        atomic_write_text(output, json.dumps(s, indent=2) + "\n")
+        try:
+            check_outputs([], [output])
+            atomic_write_text(output, json.dumps(s, indent=2) + "\n")
+        except (TwinError, OSError) as exc:
+            fail(str(exc) if isinstance(exc, TwinError) else f"cannot write {output}: {exc.strerror or exc}")
     elif json_out is None:
         typer.echo(json.dumps(s, indent=2))
     emit_json(s, json_out)
@@ -125,6 +133,13 @@ def comb(
 
     try:
         loaded = load_scenario(scenario)
+        from twin.reporting.render import check_temperature_c
+
+        check_temperature_c(t_low_c, "--t-low-c")
+        check_temperature_c(t_high_c, "--t-high-c")
+        if not (math.isfinite(acceleration_g) and abs(acceleration_g) <= 1000):
+            raise ValueError(f"--acceleration-g {acceleration_g:g}: expected a finite value within ±1000 g")
+        check_outputs([scenario], [None if json_out == "-" else json_out])
         report = comb_report(loaded.geometry(), acceleration_g, t_low_c, t_high_c)
     except (TwinError, ValueError) as exc:
         fail(str(exc))
@@ -166,19 +181,29 @@ def render(
         from twin.reporting import render as rd
 
         temps = rd.parse_sweep(sweep) if sweep is not None else None
+        if temps is None:
+            rd.check_temperature_c(temperature)
+        for name, v, top in (("--exaggeration", exaggeration, 1e9), ("--acceleration-g", acceleration_g, 1000)):
+            if not (math.isfinite(v) and abs(v) <= top):
+                raise ValueError(f"{name} {v:g}: expected a finite value within ±{top:g}")
+        check_outputs([scenario], [output, None if json_out == "-" else json_out])
     except (TwinError, ValueError) as exc:
         fail(str(exc))
     from tqdm import tqdm
 
     geometry = loaded.geometry()
-    if temps is None:
-        rd.render_png(geometry, temperature, output, exaggeration=exaggeration, acceleration_g=acceleration_g, reading=reading)
-        result = {"output": str(output), "temperatures_c": [temperature], "frames": 1}
-    else:
-        with tqdm(total=len(temps), desc="render", unit="frame", leave=False, file=sys.stderr, disable=None) as bar:
-            rd.render_sweep(geometry, temps, output, exaggeration=exaggeration, acceleration_g=acceleration_g,
-                            reading=reading, progress=lambda t: bar.update(1))
-        result = {"output": str(output), "temperatures_c": [float(t) for t in temps], "frames": len(temps)}
+    try:
+        if temps is None:
+            rd.render_png(geometry, temperature, output, exaggeration=exaggeration, acceleration_g=acceleration_g,
+                          reading=reading)
+            result = {"output": str(output), "temperatures_c": [temperature], "frames": 1}
+        else:
+            with tqdm(total=len(temps), desc="render", unit="frame", leave=False, file=sys.stderr, disable=None) as bar:
+                rd.render_sweep(geometry, temps, output, exaggeration=exaggeration, acceleration_g=acceleration_g,
+                                reading=reading, progress=lambda t: bar.update(1))
+            result = {"output": str(output), "temperatures_c": [float(t) for t in temps], "frames": len(temps)}
+    except OSError as exc:
+        fail(f"cannot write {output}: {exc.strerror or exc}")
     result.update(exaggeration=exaggeration, reading=reading, acceleration_g=acceleration_g)
     if json_out != "-":
         typer.echo(f"wrote {output} ({result['frames']} frame{'s' if result['frames'] > 1 else ''})")

@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from twin.cli.common import JsonOpt, app, emit_json, fail
+from twin.cli.common import JsonOpt, app, check_outputs, emit_json, fail
 from twin.errors import TwinError
 
 
@@ -47,6 +47,8 @@ def benchmark(
             write_benchmark_report(report, result)
     except TwinError as exc:
         fail(str(exc))
+    except OSError as exc:
+        fail(f"{exc.filename or report}: {exc.strerror or exc}")
     if json_out != "-":
         typer.echo(f"Table 1: MSE of the compensated output [g²] on Tests 1..{seeds} (noise floor {result['noise_floor_mse']:.3e})")
         for row in result["table1"]:
@@ -64,7 +66,7 @@ def benchmark(
 def doe(
     study: Annotated[Path, typer.Argument(help="study YAML")],
     output: Annotated[Path, typer.Option("-o", "--output", help="output folder (runs.jsonl, table, plots)")],
-    workers: Annotated[int, typer.Option("--workers", min=1, help="parallel runs")] = 1,
+    workers: Annotated[int, typer.Option("--workers", min=1, max=256, help="parallel runs")] = 1,
     executor: Annotated[str, typer.Option("--executor", help="local or dask")] = "local",
     scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="dask scheduler address (default: a local cluster)")] = None,
     json_out: JsonOpt = None,
@@ -77,13 +79,22 @@ def doe(
     if executor not in ("local", "dask"):
         fail(f"--executor must be 'local' or 'dask', got {executor!r}")
     try:
-        st, base, _ = load_study(study)
+        st, base, folder = load_study(study)
+        check_outputs([study, folder / st.base], [None if json_out == "-" else json_out])
+        if output.resolve() in (study.resolve(), (folder / st.base).resolve()):
+            raise TwinError(f"-o {output}: the output folder would overwrite an input; choose another path")
         total = len(plan(st, base))
         with tqdm(total=total, desc="runs", unit="run", file=sys.stderr, disable=None) as bar:
             runs = run_study(st, base, output, workers, executor, scheduler, progress=lambda r: bar.update(1))
+        failed = [r for r in runs if r["status"] != "ok"]
+        if runs and len(failed) == len(runs):  # nothing to analyse: say why instead of an empty "success"
+            raise TwinError(f"{study}: all {len(runs)} runs failed (kept in {output / 'runs.jsonl'}); the first: "
+                            f"{failed[0].get('error', '?')}")
         analysis = write_outputs(st, runs, output)
     except TwinError as exc:
         fail(str(exc))
+    except OSError as exc:
+        fail(f"{exc.filename or output}: {exc.strerror or exc}")
     result = {"output": str(output), "runs": len(runs), "planned": total, "failed": analysis["failed"],
               "main_effects": analysis["main_effects"], "interactions": analysis["interactions"],
               "sobol": analysis["sobol"]}

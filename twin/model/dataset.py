@@ -14,7 +14,7 @@ import h5py
 import numpy as np
 
 from twin.errors import DatasetError
-from twin.io import atomic_path
+from twin.io import atomic_hdf5
 
 LAYOUT_VERSION = "1"
 
@@ -77,12 +77,12 @@ class Dataset:
 
 
 def write_hdf5(ds: Dataset, path: str | Path, compression: str = "lzf") -> Path:
-    """Write atomically: into a temporary file beside ``path``, then rename.
-
-    An interrupted write never leaves a truncated file under the final name.
+    """Write atomically: the file is built in memory, written to a temporary file beside ``path``,
+    then renamed. An interrupted or failed write (full disk, file-size limit) never leaves a
+    truncated file under the final name, nor a temporary one.
     """
     comp = None if compression == "none" else compression
-    with atomic_path(Path(path)) as tmp, h5py.File(tmp, "w") as f:
+    with atomic_hdf5(Path(path)) as f:  # built in memory: the disk is written by Python, errors are OSError
         for key, value in ds.attrs.items():
             f.attrs[key] = value
         for name, values in ds.arrays.items():

@@ -147,7 +147,18 @@ def load_scenario(path: str | Path) -> LoadedScenario:
     return parse_scenario(read_text(path, "scenario file", ScenarioError), str(Path(path)))
 
 
+#: The largest simulation accepted: samples over all runs (one axis; a three-axis device counts
+#: 2.5 times, its per-axis arrays). `twin run` on the paper scenario peaks at 351 MB for 583,501
+#: samples, 129 MB of it imports: ~380 B per sample, the in-memory HDF5 image included.
+MAX_SAMPLES = 10_000_000
+BYTES_PER_SAMPLE = 400
+MAX_SEGMENTS = 1_000_000  # program segments (cycles × steps) and orientation blocks
+MAX_CELLS = 400  # finite-volume cells of a conduction stack (one mode filter each)
+
+
 def _compile_program(scenario: Scenario, path: str, lines: dict[tuple, int]) -> prog.ChamberProgram:
+    """Compile the program after checking its size: duration, samples and memory are estimated
+    from the first two cycles, before anything of the run's size is allocated."""
     p = scenario.program
     steps: list[prog.Step] = []
     kinds = {HoldStep: prog.Hold, RampStep: prog.Ramp, StaircaseStep: prog.Staircase}
@@ -155,10 +166,46 @@ def _compile_program(scenario: Scenario, path: str, lines: dict[tuple, int]) -> 
         step = kinds[type(s)]
         steps.append(step(**_dataclass_kwargs(s, step)))
     try:
-        return prog.compile_program(p.start_c, steps, p.cycles)
+        head = prog.compile_program(p.start_c, steps, min(p.cycles, 2))
+        first = prog.compile_program(p.start_c, steps, 1).duration_s
+        duration = first + (p.cycles - 1) * (head.duration_s - first)  # cycles after the first are alike
+        _check_size(scenario, duration, path, lines)
+        return head if p.cycles <= 2 else prog.compile_program(p.start_c, steps, p.cycles)
     except prog.ProgramError as exc:
         loc = ("program", "steps", exc.step_index) if exc.step_index is not None else ("program",)
         raise ScenarioError(f"{where(path, lines, loc)}: program.{exc}") from None
+
+
+def _check_size(scenario: Scenario, duration_s: float, path: str, lines: dict[tuple, int]) -> None:
+    """Refuse a program of zero duration, and runs too large to hold in memory, naming the size."""
+    p, tp = scenario.program, scenario.test_plan
+    at = where(path, lines, ("program",))
+    if not duration_s > 0:
+        raise ScenarioError(f"{at}: program lasts 0 s (every step starts at its target); expected a duration > 0 s, "
+                            "e.g. a hold with dwell_s > 0")
+    if p.cycles * len(p.steps) > MAX_SEGMENTS:
+        raise ScenarioError(f"{at}: program has {p.cycles} cycles × {len(p.steps)} steps = "
+                            f"{p.cycles * len(p.steps):,} segments; the limit is {MAX_SEGMENTS:,}")
+    weight = 2.5 if scenario.device.axes is not None else 1.0
+    samples = (math.floor(duration_s * tp.logger_rate_hz) + 1) * tp.runs
+    if samples * weight > MAX_SAMPLES:
+        gb = samples * weight * BYTES_PER_SAMPLE / 1e9
+        raise ScenarioError(
+            f"{at}: program of {duration_s:.4g} s at test_plan.logger_rate_hz {tp.logger_rate_hz:g} Hz × "
+            f"{tp.runs} run(s) is {samples:.3g} samples, needing ~{gb:.3g} GB of memory; the limit is "
+            f"{MAX_SAMPLES / weight:,.0f} samples (~{MAX_SAMPLES * BYTES_PER_SAMPLE / 1e9:.0f} GB): shorten the program "
+            "or lower the logger rate or the runs")
+    for key in ("tumble", "six_position"):
+        block = getattr(tp, key)
+        if block is not None and duration_s / block.block_s > MAX_SEGMENTS:
+            raise ScenarioError(f"{where(path, lines, ('test_plan', key, 'block_s'))}: test_plan.{key}.block_s "
+                                f"{block.block_s:g} s makes {duration_s / block.block_s:.3g} blocks in a {duration_s:.4g} s "
+                                f"run; the limit is {MAX_SEGMENTS:,}")
+    c = scenario.chamber
+    cells = sum(layer.cells for layer in c.conduction_1d.layers)
+    if c.model == "conduction_1d" and cells > MAX_CELLS:
+        raise ScenarioError(f"{where(path, lines, ('chamber', 'conduction_1d', 'layers'))}: chamber.conduction_1d has "
+                            f"{cells} cells in all; the limit is {MAX_CELLS}")
 
 
 def _resolve_sensor(scenario: Scenario, path: str, lines: dict[tuple, int]) -> tuple[Scenario, Part]:
@@ -212,6 +259,9 @@ def _check_consistency(scenario: Scenario, path: str, lines: dict[tuple, int]) -
                 effect = get_effect(name)(**(params or {}))
             except ModelError as exc:
                 raise ScenarioError(f"{where(path, lines, loc)}: {key}: {exc}") from None
+            except (Exception, SystemExit) as exc:  # noqa: BLE001 - a plugin effect's own failure, in one line
+                raise ScenarioError(f"{where(path, lines, loc)}: {key}: effect {name!r} failed to build: "
+                                    f"{type(exc).__name__}: {' '.join(str(exc).split())[:200]}") from None
             if effect.slot == "temperature":
                 raise ScenarioError(
                     f"{where(path, lines, loc)}: {key}: {name!r} is the twin's model of the die-thermometer lag; a "

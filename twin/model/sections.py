@@ -13,7 +13,7 @@ import dataclasses
 import math
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from sim import program as prog
 from sim import thermal
@@ -31,8 +31,16 @@ def default_of(cls: type, name: str) -> Any:
     raise TypeError(f"{cls.__name__}.{name} has no default")
 
 
-PositiveFloat = Annotated[float, Field(gt=0)]
-NonNegativeFloat = Annotated[float, Field(ge=0)]
+# Upper bounds keep every product of the simulation finite; the physical ones are named where they apply.
+LARGE = 1e9
+PositiveFloat = Annotated[float, Field(gt=0, le=LARGE)]
+NonNegativeFloat = Annotated[float, Field(ge=0, le=LARGE), AfterValidator(lambda v: v + 0.0)]  # -0.0 → 0.0 (a σ)
+#: Chamber set-points: the silicon model (Okada & Tokumaru 1984) holds from 120 K (−153 °C); 300 °C is beyond any
+#: MEMS part's storage rating.
+SETPOINT_RANGE_C = (-150.0, 300.0)
+SetpointC = Annotated[float, Field(ge=SETPOINT_RANGE_C[0], le=SETPOINT_RANGE_C[1])]
+AccelerationG = Annotated[float, Field(ge=-1000.0, le=1000.0)]  # beyond any accelerometer's range [g]
+OffsetMg = Annotated[float, Field(ge=-1e4, le=1e4)]  # ±10 g [mg]
 
 
 class _Section(BaseModel):
@@ -46,25 +54,25 @@ class HoldStep(_Section):
     """Hold the set-point; optionally step to ``target_c`` first."""
 
     type: Literal["hold"]
-    dwell_s: float = Field(gt=0, description="how long to hold [s]")
-    target_c: float | None = Field(default_of(prog.Hold, "target_c"), description="step the set-point here first [°C]")
+    dwell_s: float = Field(gt=0, le=LARGE, description="how long to hold [s]")
+    target_c: SetpointC | None = Field(default_of(prog.Hold, "target_c"), description="step the set-point here first [°C]")
 
 
 class RampStep(_Section):
     """Linear ramp to ``target_c``."""
 
     type: Literal["ramp"]
-    target_c: float = Field(description="end temperature [°C]")
-    ramp_c_per_h: float = Field(description="rate [°C/h]: a magnitude, or signed towards the target")
+    target_c: SetpointC = Field(description="end temperature [°C]")
+    ramp_c_per_h: float = Field(ge=-LARGE, le=LARGE, description="rate [°C/h]: a magnitude, or signed towards the target")
 
 
 class StaircaseStep(_Section):
     """Steps of ``step_c`` every ``step_s`` up or down to ``target_c`` (0.4 °C every 35 s)."""
 
     type: Literal["staircase"]
-    target_c: float
-    step_c: float = Field(gt=0, description="temperature increment [°C]")
-    step_s: float = Field(gt=0, description="time per step [s]")
+    target_c: SetpointC = Field(description="end temperature [°C]")
+    step_c: float = Field(gt=0, le=LARGE, description="temperature increment [°C]")
+    step_s: float = Field(gt=0, le=LARGE, description="time per step [s]")
 
 
 Step = Annotated[Union[HoldStep, RampStep, StaircaseStep], Field(discriminator="type")]
@@ -73,8 +81,8 @@ Step = Annotated[Union[HoldStep, RampStep, StaircaseStep], Field(discriminator="
 class ProgramSection(_Section):
     """Chamber set-point program: ``steps`` repeated ``cycles`` times from ``start_c``."""
 
-    start_c: float = Field(-20.0, description="set-point at t = 0; the chamber starts in equilibrium there [°C]")
-    cycles: int = Field(1, ge=1)
+    start_c: SetpointC = Field(-20.0, description="set-point at t = 0; the chamber starts in equilibrium there [°C]")
+    cycles: int = Field(1, ge=1, le=100_000)
     steps: list[Step] = Field(min_length=1)
 
 
@@ -93,7 +101,7 @@ class ThermometerSection(_Section):
     noise_c: NonNegativeFloat = Field(_thermometer("noise_c"), description="white noise σ per reading (±0.03 °C read as "
                                                                             "3σ) [°C]")
     resolution_c: NonNegativeFloat = Field(_thermometer("resolution_c"), description="reading resolution [°C]")
-    offset_c: float = Field(_thermometer("offset_c"), description="fixed reading offset [°C]")
+    offset_c: float = Field(_thermometer("offset_c"), ge=-100.0, le=100.0, description="fixed reading offset [°C]")
     sample_rate_hz: PositiveFloat = Field(_thermometer("sample_rate_hz"), description="thermometer sample rate [Hz]")
 
 
@@ -187,7 +195,7 @@ class SensorSection(_Section):
                                                                                     "[µg/√Hz]")
     bias_instability_mg: NonNegativeFloat | None = Field(None, description="override: Gauss–Markov bias σ [mg]")
     bias_instability_tau_s: PositiveFloat | None = Field(None, description="override: its correlation time [s]")
-    zero_g_offset_mg: float = Field(0.0, description="zero-g offset of this device at the reference temperature [mg]")
+    zero_g_offset_mg: OffsetMg = Field(0.0, description="zero-g offset of this device at the reference temperature [mg]")
     turn_on_bias_mg: NonNegativeFloat = Field(0.0, description="σ of a bias drawn afresh at each run's start [mg]")
 
     @model_validator(mode="after")
@@ -231,7 +239,7 @@ class AxisSection(_Section):
 
     effects: dict[str, EffectParams] = Field(default_factory=_default_effects,
                                              description="effects this axis truly has, with their parameters")
-    zero_g_offset_mg: float = Field(0.0, description="zero-g offset of this axis at the reference temperature [mg]")
+    zero_g_offset_mg: OffsetMg = Field(0.0, description="zero-g offset of this axis at the reference temperature [mg]")
 
 
 class AxesSection(_Section):
@@ -275,7 +283,7 @@ Position = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
 
 class OrientationSection(_Section):
     at_s: NonNegativeFloat = Field(description="time from the start of each run [s]")
-    applied_g: float | None = Field(None, description="one-axis device: acceleration along the sensing axis from "
+    applied_g: AccelerationG | None = Field(None, description="one-axis device: acceleration along the sensing axis from "
                                                       "then on [g]")
     gravity_g: list[float] | None = Field(None, description="three-axis device: gravity seen by the axes x, y, z from "
                                                             "then on (a unit vector) [g]")
@@ -305,7 +313,7 @@ class TumbleSection(_Section):
     """Orientation blocks repeated through each run (+1 g, −1 g, 0 g tumble)."""
 
     block_s: PositiveFloat = Field(description="time in each orientation [s]")
-    applied_g: list[float] = Field(min_length=1, description="the cycle of orientations [g]")
+    applied_g: list[AccelerationG] = Field(min_length=1, description="the cycle of orientations [g]")
 
 
 class SixPositionSection(_Section):
@@ -337,9 +345,9 @@ class TestPlanSection(_Section):
     logger_mode: Literal["latest", "average"] = "latest"
     orientations: list[OrientationSection] = Field(default_factory=lambda: [OrientationSection(at_s=0.0, applied_g=1.0)])
     power_on_s: list[NonNegativeFloat] = Field(default_factory=lambda: [0.0], description="power-on times in each run [s]")
-    runs: int = Field(1, ge=1, description="independent runs of the program (same device, new noise)")
+    runs: int = Field(1, ge=1, le=100_000, description="independent runs of the program (same device, new noise)")
     tumble: TumbleSection | None = Field(None, description="cyclic orientation blocks, instead of orientations")
-    run_applied_g: list[float] | None = Field(None, min_length=1,
+    run_applied_g: list[AccelerationG] | None = Field(None, min_length=1,
                                               description="one constant orientation per run, cycling (e.g. [1, -1])")
     six_position: SixPositionSection | None = Field(None, description="three-axis device: gravity along +x, -x, ... "
                                                                       "in blocks, instead of orientations")
@@ -380,6 +388,9 @@ class TestPlanSection(_Section):
         if not v:
             raise ValueError("needs at least one orientation")
         times = [o.at_s for o in v]
+        same = [t for a, t in zip(times, times[1:]) if a == t]
+        if same:  # one would silently win
+            raise ValueError(f"two orientations at the same instant at_s {same[0]:g} s; give each instant once")
         if times != sorted(times):
             raise ValueError("orientations must be in increasing at_s")
         return v
@@ -401,7 +412,7 @@ class OutputSection(_Section):
 class Scenario(_Section):
     """A thermal-chamber test scenario."""
 
-    seed: int = Field(0, ge=0, description="seed of every random draw")
+    seed: int = Field(0, ge=0, le=2**63 - 1, description="seed of every random draw (a 64-bit integer)")
     name: str = ""
     description: str = ""
     program: ProgramSection

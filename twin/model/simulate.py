@@ -21,6 +21,7 @@ from sim.sensor import logger_white_sigma_g, sensor_output
 from sim.thermal import ThermalResult, read_thermometer, simulate_chain
 from twin import __version__
 from twin.effects import EffectInputs
+from twin.errors import ScenarioError
 from twin.model import axes
 from twin.model.dataset import LAYOUT, LAYOUT_VERSION, Dataset
 from twin.model.scenario import LoadedScenario
@@ -75,16 +76,45 @@ class _Axis:
 
 
 def _drift(composition, inputs: EffectInputs, zero_g_mg: float, turn_on_mg: float, runs: int, n_run: int,
-           rng_turn_on: np.random.Generator) -> _Axis:
+           rng_turn_on: np.random.Generator, path: str = "<scenario>") -> _Axis:
     """The device's effects on one axis (``inputs.applied_g`` applied to it): bias and scale factor."""
     t = inputs.time_s
-    contributions = composition.evaluate(inputs, device=True)
+    contributions = _evaluate(composition, inputs, path)
     zero_g_g = zero_g_mg * 1e-3
     turn_on_g = np.repeat(rng_turn_on.normal(0.0, turn_on_mg * 1e-3, runs), n_run)
     bias = zero_g_g + turn_on_g + sum((np.broadcast_to(c.bias_g, t.shape) for c in contributions.values()),
                                       np.zeros(t.size))
     sf = sum((np.broadcast_to(c.scale_factor, t.shape) for c in contributions.values()), np.zeros(t.size))
     return _Axis(inputs.applied_g, contributions, turn_on_g, bias, sf)
+
+
+def _evaluate(composition, inputs: EffectInputs, path: str) -> dict:
+    """The device's contributions; an effect that raises (a plugin's, say) is named in one line."""
+    from twin.effects import Composition
+
+    try:
+        return composition.evaluate(inputs, device=True)
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - user code: named, never a traceback
+        culprit, err = "", exc
+        for effect in composition.effects:  # which one: evaluate each alone
+            try:
+                Composition([effect]).evaluate(inputs, device=True)
+            except (Exception, SystemExit) as one:  # noqa: BLE001
+                culprit, err = effect.name, one
+                break
+        what = f"effect {culprit!r}" if culprit else "the device's effects"
+        raise ScenarioError(f"{path}: device.effects: {what} failed while simulating: {type(err).__name__}: "
+                            f"{' '.join(str(err).split())[:200]}; expected it to return finite contributions") from None
+
+
+def _check_finite(ds: Dataset, path: str) -> None:
+    """Every array finite: a scenario whose magnitudes overflow is refused, never written as NaN."""
+    for name, values in ds.arrays.items():
+        if values.dtype.kind == "f" and not np.all(np.isfinite(values)):
+            k = int(np.flatnonzero(~np.isfinite(values))[0])
+            raise ScenarioError(f"{path}: the simulation gave a non-finite {name} at sample {k} "
+                                "(t = {:.6g} s); expected finite values: reduce the scenario's extreme magnitudes"
+                                .format(float(ds.arrays["time_s"][k])))
 
 
 def _output(axis: _Axis, sensor, tp, rng_white: np.random.Generator, rng_bias: np.random.Generator) -> None:
@@ -158,8 +188,12 @@ def simulate(
     tile = lambda a: np.tile(a, runs)  # noqa: E731 - the thermal response is the same every run
     time_s = (t_run[None, :] + run_period * np.arange(runs)[:, None]).ravel()
     run_index = np.repeat(np.arange(runs, dtype=np.int16), n_run)
-    composition = loaded.device_composition()
-    shift_c = 0.0 if three else composition.thermometer_shift_c()  # per-axis effects never act on it
+    try:
+        composition = loaded.device_composition()
+        shift_c = 0.0 if three else composition.thermometer_shift_c()  # per-axis effects never act on it
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - a plugin effect's own failure, in one line
+        raise ScenarioError(f"{loaded.path}: device.effects: building the device's effects failed: "
+                            f"{type(exc).__name__}: {' '.join(str(exc).split())[:200]}") from None
     probe = replace(thermometer, offset_c=thermometer.offset_c + shift_c)
     thermo = np.concatenate([read_thermometer(t_run, th.probe_c, probe, rng_thermo) for _ in range(runs)])
     if three:
@@ -180,11 +214,11 @@ def simulate(
         rngs = [tuple(np.random.default_rng(c[k]) for c in children) for k in range(len(loaded.axes))]
         per_axis = {a: _drift(loaded.device_composition(a), inputs.replace(applied_g=gravity[:, k]),
                               getattr(scn.device.axes, a).zero_g_offset_mg, sensor_section.turn_on_bias_mg, runs,
-                              n_run, rngs[k][2]) for k, a in enumerate(loaded.axes)}
+                              n_run, rngs[k][2], loaded.path) for k, a in enumerate(loaded.axes)}
     else:
         rngs = [(rng_white, rng_bias, rng_turn_on)]
         per_axis = {None: _drift(composition, inputs, sensor_section.zero_g_offset_mg, sensor_section.turn_on_bias_mg,
-                                 runs, n_run, rng_turn_on)}
+                                 runs, n_run, rng_turn_on, loaded.path)}
 
     tick(STAGES[3])
     sensor = loaded.sensor()
@@ -226,6 +260,7 @@ def simulate(
     ds.add("test/time_since_power_on_s", inputs.time_since_power_on_s)
     for axis, a in per_axis.items():
         _add_axis(ds, a, axis)
+    _check_finite(ds, loaded.path)
     return ds
 
 

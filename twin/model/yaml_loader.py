@@ -7,6 +7,7 @@ The YAML side (safe loading, the key → line map, key paths, "did you mean") is
 
 from __future__ import annotations
 
+import re
 import types
 import typing
 from typing import Annotated, Any, Union
@@ -57,6 +58,9 @@ def _model_at(root: type[BaseModel], loc: tuple) -> tuple[type[BaseModel] | None
     return parent, tuple(clean)
 
 
+_BOUNDS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
+
+
 def validation_message(err: ValidationError, root: type[BaseModel], path: str, lines: dict[tuple, int]) -> str:
     """One line for a pydantic error: ``file:line: key.path: what was expected``; an unknown key
     gets the closest valid one, an unknown step type the closest type."""
@@ -81,6 +85,9 @@ def validation_message(err: ValidationError, root: type[BaseModel], path: str, l
     if e["type"] == "missing":
         return f"{at}: missing required key {key!r}"
     msg = e["msg"]
+    if e["type"] in _BOUNDS and parent is not None and clean and clean[-1] in parent.model_fields:
+        unit = re.search(r"\[([^\]]+)\]\s*$", parent.model_fields[clean[-1]].description or "")
+        msg += f" {unit.group(1)}" if unit else ""  # the bound with its unit: "<= 300 °C"
     got = e.get("input")
     shown = "" if isinstance(got, (dict, list)) else f" (got {got!r})"
     return f"{at}: {key}: {msg}{shown}"

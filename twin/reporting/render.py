@@ -5,6 +5,7 @@ pyvista is imported inside the functions so that ``import twin`` stays light.
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
@@ -128,12 +129,32 @@ def render_sweep(geometry: CombGeometry, temperatures_c: np.ndarray, path: str |
     return path
 
 
+MAX_FRAMES = 1000  # a sweep's frames (each a full render; 1000 take minutes)
+
+
+def check_temperature_c(temperature_c: float, what: str = "--temperature") -> float:
+    """A temperature inside the silicon model's validity (Okada & Tokumaru 1984, 120-1500 K), else ValueError."""
+    from sim.materials import KELVIN, OKADA_VALID_K
+
+    lo, hi = (k - KELVIN for k in OKADA_VALID_K)
+    if not (math.isfinite(temperature_c) and lo <= temperature_c <= hi):
+        raise ValueError(f"{what} {temperature_c:g} °C is outside the silicon model's range (Okada & Tokumaru 1984: "
+                         f"{OKADA_VALID_K[0]:g}-{OKADA_VALID_K[1]:g} K = {lo:.2f}..{hi:.2f} °C)")
+    return temperature_c
+
+
 def parse_sweep(spec: str) -> np.ndarray:
-    """``"-20:50:5"`` → [-20, -15, …, 50] (end included when on the grid)."""
+    """``"-20:50:5"`` → [-20, -15, …, 50] (end included when on the grid); at most :data:`MAX_FRAMES`
+    frames, every temperature inside the silicon model's range."""
     try:
         start, stop, step = (float(x) for x in spec.split(":"))
     except ValueError:
         raise ValueError(f"--sweep expects START:STOP:STEP in °C, e.g. -20:50:5; got {spec!r}") from None
-    if step <= 0 or stop < start:
-        raise ValueError(f"--sweep {spec!r}: need STEP > 0 and STOP >= START")
+    if not all(math.isfinite(v) for v in (start, stop, step)) or step <= 0 or stop < start:
+        raise ValueError(f"--sweep {spec!r}: need finite numbers, STEP > 0 and STOP >= START")
+    check_temperature_c(start, "--sweep START")
+    check_temperature_c(stop, "--sweep STOP")
+    frames = math.floor((stop - start) / step + 0.5) + 1
+    if frames > MAX_FRAMES:
+        raise ValueError(f"--sweep {spec!r} makes {frames:.4g} frames; the limit is {MAX_FRAMES}: take a larger STEP")
     return np.arange(start, stop + step / 2, step)

@@ -126,9 +126,7 @@ def _cell(v) -> str:
 
 def write_outputs(study: Study, runs: list[dict], out_dir: Path) -> dict:
     """Table (CSV and HDF5), analysis JSON, plots."""
-    import h5py
-
-    from twin.io import atomic_path, atomic_write_text
+    from twin.io import atomic_hdf5, atomic_write_text
     from twin.studies.plots import write_plots
 
     names, Y, rows = table(study, runs)
@@ -136,7 +134,7 @@ def write_outputs(study: Study, runs: list[dict], out_dir: Path) -> dict:
     lines = [",".join(cols)] + [",".join(_cell(r[c]) for c in cols) for r in rows]
     atomic_write_text(out_dir / "table.csv", "\n".join(lines) + "\n")
     numeric = numeric_responses(study, rows)
-    with atomic_path(out_dir / "table.h5") as tmp, h5py.File(tmp, "w") as f:
+    with atomic_hdf5(out_dir / "table.h5") as f:  # built in memory: a full disk is an OSError, not a crash
         f.attrs["study"] = study.model_dump_json(exclude={"plugins"} if not study.plugins else None)
         f.create_dataset("index", data=np.array([r["index"] for r in rows]))
         f.create_dataset("replicate", data=np.array([r["replicate"] for r in rows]))

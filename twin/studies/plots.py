@@ -22,8 +22,13 @@ def _grid(displays: list[list], size: tuple[float, float], path: Path) -> None:
         for j, disp in enumerate(row):
             disp.plot(ax=axes[i][j])
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    from twin.io import atomic_path
+
+    try:
+        with atomic_path(Path(path)) as tmp:  # a kill or a full disk leaves no half image
+            fig.savefig(tmp, dpi=90, format="png")
+    finally:
+        plt.close(fig)
 
 
 def write_plots(study: Study, rows: list[dict], analysis: dict, out_dir: Path, responses: list[str] | None = None) -> None:

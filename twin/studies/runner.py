@@ -16,6 +16,8 @@ from twin.studies.design import plan
 from twin.studies.responses import RunContext, get_response, load_plugin
 from twin.studies.spec import Study, StudyError
 
+SCHEDULER_TIMEOUT_S = 5.0  # a dead scheduler: one line after this, not a traceback after 30 s
+
 
 def evaluate_run(job: dict, responses: list[str], plugins: list[str] | tuple = ()) -> dict:
     """Simulate one resolved scenario and compute its responses (run in a worker process, which
@@ -33,9 +35,9 @@ def evaluate_run(job: dict, responses: list[str], plugins: list[str] | tuple = (
         run.dataset  # every run simulates, whatever its responses read
         out["responses"] = {r.name: r.evaluate(run) for r in registered}
         out["status"] = "ok"
-    except Exception as exc:  # recorded, and the study goes on
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - recorded (a plugin's SystemExit too), the study goes on
         out["status"] = "error"
-        out["error"] = f"{type(exc).__name__}: {exc}"
+        out["error"] = f"{type(exc).__name__}: {' '.join(str(exc).split())[:500]}"
     out["seconds"] = time.perf_counter() - t0
     return out
 
@@ -49,27 +51,73 @@ def _append(path: Path, record: dict) -> None:
         os.fsync(f.fileno())
 
 
-def _end_torn_line(path: Path) -> None:
-    """A kill in the middle of a write leaves a line without its newline: end it, so the next
-    record starts a line of its own (the torn line is then skipped on reading)."""
-    if path.is_file() and path.stat().st_size:
-        with open(path, "rb+") as f:
-            f.seek(-1, os.SEEK_END)
-            if f.read(1) != b"\n":
-                f.write(b"\n")
-                f.flush()
-                os.fsync(f.fileno())
+def _drop_torn_line(path: Path) -> bool:
+    """A kill in the middle of an append leaves a last line without its newline: cut it off, so
+    the next record starts a line of its own and the torn run is run again. True if one was cut."""
+    if not (path.is_file() and path.stat().st_size):
+        return False
+    with open(path, "rb+") as f:
+        data = f.read()
+        if data.endswith(b"\n"):
+            return False
+        f.truncate(data.rfind(b"\n") + 1)
+        f.flush()
+        os.fsync(f.fileno())
+    return True
+
+
+_OUTPUTS = ("table.csv", "table.h5", "analysis.json", "main_effects.png", "response_surface.png", "sobol.png")
+
+
+def _remove_stale_temporaries(out_dir: Path) -> None:
+    """Temporary files of a killed study's final write (``.table.h5.*.tmp`` ...) and of its plots."""
+    from twin.io import remove_stale_temporaries
+
+    remove_stale_temporaries(out_dir, _OUTPUTS)
+
+
+def _die_with_parent() -> None:
+    """Pool worker initialiser: end this worker when the study's process dies (a kill -9 included),
+    rather than leave it computing runs nobody will record."""
+    import signal
+    import threading
+
+    parent = os.getppid()
+    try:  # Linux: the kernel signals us when the parent dies
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+    def watch() -> None:  # elsewhere (and as a backstop): poll the parent
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
 
 
 def read_runs(path: Path) -> dict[str, dict]:
-    """Finished runs by key (a torn line from a kill is ignored; a line that is JSON but not a run
-    record means the folder holds something else, and is an error)."""
+    """Finished runs by key. A torn last line (a kill during the append) is ignored, as is a torn
+    record an older version left mid-file; any other line that is not a run record means the
+    folder holds something else, and is an error."""
     runs = {}
     if path.is_file():
-        for n, line in enumerate(path.read_text().splitlines(), 1):
+        try:
+            text = path.read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise StudyError(f"{path}: not UTF-8 text (byte {exc.start}); expected the runs.jsonl of a study") from None
+        lines = text.split("\n")
+        for n, line in enumerate(lines, 1):
             try:
-                r = json.loads(line)
+                r = json.loads(line) if line.strip() else None
             except json.JSONDecodeError:
+                if n == len(lines) or line.startswith('{"key": '):  # torn: the run is done again
+                    continue
+                raise StudyError(f"{path}:{n}: not a run record of a study (expected one JSON object per line); "
+                                 "give the study an output folder of its own") from None
+            if r is None:
                 continue
             if not (isinstance(r, dict) and isinstance(r.get("key"), str) and "status" in r):
                 raise StudyError(f"{path}:{n}: not a run record of a study (expected an object with 'key' and "
@@ -92,6 +140,7 @@ def run_study(study: Study, base: dict, out_dir: Path, workers: int = 1, executo
     if out_dir.exists() and not out_dir.is_dir():
         raise StudyError(f"{out_dir}: the output must be a folder, and this is a file")
     out_dir.mkdir(parents=True, exist_ok=True)
+    _remove_stale_temporaries(out_dir)
     log = out_dir / "runs.jsonl"
     done = read_runs(log)
     jobs = plan(study, base)
@@ -101,12 +150,17 @@ def run_study(study: Study, base: dict, out_dir: Path, workers: int = 1, executo
         tick(None)
     args = (study.responses, list(study.plugins))
     if pending:
-        _end_torn_line(log)
+        _drop_torn_line(log)
         if executor == "dask":
             from dask.distributed import Client, as_completed
 
-            client = Client(scheduler) if scheduler else Client(processes=True, n_workers=max(1, workers),
-                                                                threads_per_worker=1)
+            try:
+                client = Client(scheduler, timeout=SCHEDULER_TIMEOUT_S) if scheduler else \
+                    Client(processes=True, n_workers=max(1, workers), threads_per_worker=1)
+            except (OSError, TimeoutError, ValueError, TypeError) as exc:
+                raise StudyError(f"--scheduler {scheduler}: cannot reach the dask scheduler within "
+                                 f"{SCHEDULER_TIMEOUT_S:g} s ({type(exc).__name__}: {' '.join(str(exc).split())[:160]}); "
+                                 "expected a running scheduler, e.g. tcp://host:8786") from None
             try:
                 futures = [client.submit(evaluate_run, j, *args, pure=False) for j in pending]
                 for fut in as_completed(futures):
@@ -118,7 +172,7 @@ def run_study(study: Study, base: dict, out_dir: Path, workers: int = 1, executo
         elif workers > 1:
             from concurrent.futures import ProcessPoolExecutor, as_completed
 
-            with ProcessPoolExecutor(workers) as ex:
+            with ProcessPoolExecutor(workers, initializer=_die_with_parent) as ex:
                 futures = [ex.submit(evaluate_run, j, *args) for j in pending]
                 for fut in as_completed(futures):
                     rec = fut.result()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import math
 from pathlib import Path
 from typing import Literal
 
@@ -10,9 +11,11 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from twin.errors import ScenarioError, TwinError
-from twin.text import format_path, load_yaml_mapping, where
-from twin.studies.design import design_points
+from twin.io import read_text
 from twin.studies.responses import get_response, load_plugin
+from twin.text import format_path, load_yaml_mapping, where
+
+MAX_RUNS = 1_000_000  # the largest max_runs a study may set
 
 
 class StudyError(TwinError):
@@ -20,7 +23,7 @@ class StudyError(TwinError):
 
 
 class FactorSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     range: list[float] | None = Field(None, min_length=2, max_length=2, description="[low, high]")
     levels: list[int | float | str] | None = Field(None, min_length=1, description="explicit levels")
     log: bool = Field(False, description="sample the range on a log scale")
@@ -37,26 +40,41 @@ class FactorSpec(BaseModel):
 
 
 class DesignSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     type: Literal["full_factorial", "latin_hypercube", "sobol", "saltelli"] = "full_factorial"
-    points: int = Field(8, ge=1, description="samples (LHS/Sobol) or base samples N (Saltelli: N(d+2) runs)")
-    levels: int = Field(3, ge=2, description="levels per ranged factor in a full factorial")
+    points: int = Field(8, ge=1, le=MAX_RUNS, description="samples (LHS/Sobol) or base samples N (Saltelli: N(d+2) runs)")
+    levels: int = Field(3, ge=2, le=MAX_RUNS, description="levels per ranged factor in a full factorial")
 
 
 class Study(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     name: str = ""
     description: str = ""
     base: str = Field(description="base scenario YAML, relative to the study file")
-    seed: int = Field(0, ge=0)
+    seed: int = Field(0, ge=0, le=2**63 - 1)
     factors: dict[str, FactorSpec] = Field(min_length=1)
     design: DesignSpec = DesignSpec()
-    replicates: int = Field(1, ge=1)
+    replicates: int = Field(1, ge=1, le=MAX_RUNS)
     responses: list[str] = Field(min_length=1)
-    max_runs: int = Field(500, ge=1, description="refuse designs larger than this")
+    max_runs: int = Field(500, ge=1, le=MAX_RUNS, description="refuse designs larger than this")
     logger_rate_hz: float | None = Field(None, gt=0, description="override the base logger rate (faster studies)")
     plugins: list[str] = Field(default_factory=list, description="response modules (.py relative to the study, or "
                                "module names) to load before the responses are looked up; runs their code")
+
+    @model_validator(mode="after")
+    def _responses_once(self) -> Study:
+        twice = sorted({r for r in self.responses if self.responses.count(r) > 1})
+        if twice:  # the table would have two columns of one name
+            raise ValueError(f"response {twice[0]!r} is listed twice; list each response once")
+        return self
+
+
+def design_size(study: Study) -> int:
+    """The number of design points, computed without building them (a factorial can be huge)."""
+    d, t = len(study.factors), study.design.type
+    if t == "full_factorial":
+        return math.prod(len(f.levels) if f.levels is not None else study.design.levels for f in study.factors.values())
+    return study.design.points * (d + 2) if t == "saltelli" else study.design.points
 
 
 def _leaf_paths(data, prefix="") -> list[str]:
@@ -124,9 +142,7 @@ def load_study(path: str | Path) -> tuple[Study, dict, Path]:
     """Validate a study file and load its plugins; return it (plugin paths made absolute), the base
     scenario data, and the study's folder."""
     p = Path(path)
-    if not p.is_file():
-        raise ScenarioError(f"{p}: study file not found")
-    data, lines = load_yaml_mapping(p.read_text(), str(p), "a study is a YAML mapping")
+    data, lines = load_yaml_mapping(read_text(p, "study file", ScenarioError), str(p), "a study is a YAML mapping")
     try:
         study = Study.model_validate(data)
     except ValidationError as exc:
@@ -151,17 +167,39 @@ def load_study(path: str | Path) -> tuple[Study, dict, Path]:
             get_response(r)
         except TwinError as exc:
             raise ScenarioError(f"{where(str(p), lines, ('responses', i))}: {exc}") from None
+    n = design_size(study)  # before the points are built, and before the base is read
+    if n * study.replicates > study.max_runs:
+        raise ScenarioError(f"{p}: the {study.design.type} design needs {n} points × {study.replicates} replicates = "
+                            f"{n * study.replicates} runs, more than max_runs {study.max_runs}")
     base_path = (p.parent / study.base).resolve()
     if not base_path.is_file():
-        raise ScenarioError(f"{p}: base scenario {study.base!r} not found (looked in {base_path})")
-    base = yaml.safe_load(base_path.read_text())
+        raise ScenarioError(f"{where(str(p), lines, ('base',))}: base scenario {study.base!r} not found (looked in "
+                            f"{base_path})")
+    base = _check_base(study, base_path)
     for name in study.factors:
         try:
             _check_factor_path(name, base)
         except TwinError as exc:
             raise ScenarioError(f"{where(str(p), lines, ('factors', name))}: {exc}") from None
-    n = len(design_points(study))
-    if n * study.replicates > study.max_runs:
-        raise ScenarioError(f"{p}: the {study.design.type} design needs {n} points × {study.replicates} replicates = "
-                            f"{n * study.replicates} runs, more than max_runs {study.max_runs}")
     return study, base, p.parent
+
+
+def _check_base(study: Study, base_path: Path) -> dict:
+    """The base scenario's data, validated as the runs will see it (logger rate override applied):
+    an invalid base is refused here, not found out run by run."""
+    from twin.model.scenario import parse_scenario
+
+    text = read_text(base_path, "base scenario", ScenarioError)
+    base, _ = load_yaml_mapping(text, str(base_path), "a scenario is a YAML mapping with a 'program' section")
+    plan = base.get("test_plan", {})
+    if not (study.logger_rate_hz and isinstance(plan, dict)):
+        parse_scenario(text, str(base_path))
+        return base
+    probe = yaml.safe_dump({**base, "test_plan": {**plan, "logger_rate_hz": study.logger_rate_hz}}, sort_keys=False)
+    try:
+        parse_scenario(probe, str(base_path))
+    except ScenarioError as exc:
+        parse_scenario(text, str(base_path))  # the file's own error, with its own line numbers, if it has one
+        detail = str(exc).split(": ", 1)[-1]
+        raise ScenarioError(f"{base_path}: with the study's logger_rate_hz {study.logger_rate_hz:g} Hz: {detail}") from None
+    return base
