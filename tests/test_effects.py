@@ -16,7 +16,7 @@ from twin.model.simulate import simulate
 
 REQUIRED = {
     "comb_expansion": "scale_factor", "stiffness_tc": "scale_factor", "scale_factor_tc": "scale_factor",
-    "static_bias_tc": "bias_tc", "package_stress": "bias_tc", "thermal_lag": "thermal_lag",
+    "static_bias_tc": "bias_tc", "package_stress": "bias_tc", "package_fem": "bias_tc", "thermal_lag": "thermal_lag",
     "thermal_gradient": "thermal_lag", "thermal_hysteresis": "hysteresis", "stress_relaxation": "hysteresis",
     "aging_drift": "aging", "warmup": "warmup", "probe_offset": "probe", "null": "null",
 }

@@ -160,12 +160,15 @@ def render(
     output: Annotated[Path, typer.Option("-o", "--output", help="PNG (one temperature) or GIF/MP4 (--sweep)")],
     temperature: Annotated[float, typer.Option("--temperature", help="temperature [°C]")] = 50.0,
     sweep: Annotated[Optional[str], typer.Option("--sweep", help="START:STOP:STEP in °C, e.g. -20:50:5")] = None,
-    exaggeration: Annotated[float, typer.Option("--exaggeration", min=0, help="displacement scale factor")] = 2000.0,
+    exaggeration: Annotated[Optional[float], typer.Option("--exaggeration", min=0, help="displacement scale factor (default: 2000 for the comb, 50 with --fem)")] = None,
     acceleration_g: Annotated[float, typer.Option("--acceleration-g", help="input acceleration [g]")] = 0.0,
     reading: Annotated[str, typer.Option("--reading", help="thermal reading: P, S, H or HE")] = "S",
+    fem: Annotated[bool, typer.Option("--fem", help="draw the solved finite-element package cross-section (package_fem) instead of the comb")] = False,
     json_out: JsonOpt = None,
 ) -> None:
     """Off-screen image of the comb cell deformed at a temperature, or a sweep as GIF/MP4."""
+    if exaggeration is None:
+        exaggeration = 50.0 if fem else 2000.0
     from sim.microstructure import READINGS
     from twin.model.scenario import load_scenario
 
@@ -191,6 +194,9 @@ def render(
         fail(str(exc))
     from tqdm import tqdm
 
+    if fem:
+        _render_fem(loaded, output, temperature, temps, exaggeration, json_out)
+        return
     geometry = loaded.geometry()
     try:
         if temps is None:
@@ -207,6 +213,26 @@ def render(
     result.update(exaggeration=exaggeration, reading=reading, acceleration_g=acceleration_g)
     if json_out != "-":
         typer.echo(f"wrote {output} ({result['frames']} frame{'s' if result['frames'] > 1 else ''})")
+    emit_json(result, json_out)
+
+
+def _render_fem(loaded, output: Path, temperature: float, temps, exaggeration: float, json_out) -> None:
+    """``twin render --fem``: the scenario's package_fem design, solved, deformed and coloured."""
+    from tqdm import tqdm
+
+    from twin.reporting.fem_render import render_package
+
+    try:
+        with tqdm(total=len(temps) if temps is not None else 1, desc="render", unit="frame", leave=False,
+                  file=sys.stderr, disable=None) as bar:
+            result = render_package(loaded, output, temperature_c=temperature, sweep_c=temps,
+                                    exaggeration=exaggeration, progress=lambda t: bar.update(1))
+    except TwinError as exc:
+        fail(str(exc))
+    except OSError as exc:
+        fail(f"cannot write {output}: {exc.strerror or exc}")
+    if json_out != "-":
+        typer.echo(f"wrote {output} ({result['frames']} frame(s), finite-element field, ×{exaggeration:g})")
     emit_json(result, json_out)
 
 

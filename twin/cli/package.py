@@ -1,3 +1,34 @@
 """``twin package``: the finite-element package / die / comb model's drift prediction."""
 
 from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from twin.cli.common import JsonOpt, app, emit_json, guard
+
+
+@app.command()
+def package(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML (its package_fem effect, else the defaults)")],
+    json_out: JsonOpt = None,
+) -> None:
+    """Die warpage, TCOff [mg/°C] and TCSo [ppm/°C] of the FE package model, split by material,
+    beside the datasheet figures."""
+    from twin.model.scenario import load_scenario
+    from twin.reporting.package_report import (
+        package_effect,
+        package_prediction,
+        text_lines,
+    )
+
+    with guard(inputs=[scenario], outputs=[None if json_out in (None, "-") else json_out]):
+        loaded = load_scenario(scenario)
+        effect, source = package_effect(loaded)
+        result = package_prediction(effect, loaded.part)
+    result["effect_source"] = source
+    if json_out != "-":
+        typer.echo("\n".join(text_lines(result, source)))
+    emit_json(result, json_out)

@@ -1,0 +1,183 @@
+"""Linear thermoelasticity in 2-D with quadratic elements (scikit-fem), one unit load per material.
+
+Kinematics of the cross-section (x along it, y through the thickness, z out of the plane):
+
+* ``plane_strain``: ε_zz = 0; σ = λ tr(ε) I + 2μ ε − (3λ + 2μ) θ I;
+* ``plane_stress``: σ_zz = 0, i.e. λ* = 2λμ/(λ + 2μ) and a thermal modulus β* = E/(1 − ν);
+* ``gps`` (generalised plane strain): ε_zz = ε0, one global unknown, with ∫σ_zz dA = 0. Bordered
+  bilinear form ∫[2μ ε(u):ε(v) + λ tr ε(u) tr ε(v)] + ∫λ ε0 tr ε(v) + ∫λ tr ε(u) η + ∫(λ+2μ) ε0 η,
+  load ∫(3λ+2μ) θ [tr ε(v) + η] (design memo package-stress.md §4 item 2).
+
+θ is the free thermal strain ∫α dT. The problem is linear in θ: with θ = Σ_k θ_k 1_{Ω_k} (one
+value per material k), u = Σ_k θ_k U_k where U_k solves a unit thermal strain in material k alone
+(memo §4 item 4). References: Timoshenko & Goodier, *Theory of Elasticity* (1951) §§ 150–152 for
+the thermoelastic constitutive law; Barber, *Elasticity* (2010) ch. 14 for plane stress/strain.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+
+KINEMATICS = ("plane_strain", "plane_stress", "gps")
+
+
+@dataclass(frozen=True)
+class IsotropicMaterial:
+    """Linear-elastic isotropic material at its reference state."""
+
+    name: str
+    youngs_pa: float
+    poisson: float
+
+    @property
+    def lame_lambda_pa(self) -> float:
+        """λ = Eν / ((1 + ν)(1 − 2ν)) (Timoshenko & Goodier §6)."""
+        return self.youngs_pa * self.poisson / ((1 + self.poisson) * (1 - 2 * self.poisson))
+
+    @property
+    def shear_modulus_pa(self) -> float:
+        """μ = E / (2(1 + ν))."""
+        return self.youngs_pa / (2 * (1 + self.poisson))
+
+
+def moduli_pa(material: IsotropicMaterial, kinematics: str) -> tuple[float, float, float]:
+    """(λ, μ, β) for the kinematics, β the thermal modulus: σ_thermal = −β θ I in the plane."""
+    lam, mu = material.lame_lambda_pa, material.shear_modulus_pa
+    if kinematics == "plane_stress":
+        return 2 * lam * mu / (lam + 2 * mu), mu, 2 * mu * (3 * lam + 2 * mu) / (lam + 2 * mu)
+    if kinematics in ("plane_strain", "gps"):
+        return lam, mu, 3 * lam + 2 * mu
+    raise ValueError(f"kinematics must be one of {KINEMATICS}, got {kinematics!r}")
+
+
+@dataclass
+class ThermoelasticSystem:
+    """Assembled stiffness ``K`` and unit thermal loads ``F`` (one column per material).
+
+    With ``gps`` the last row/column is the out-of-plane strain ε0; ``n_field`` is the number of
+    displacement degrees of freedom (``basis.N``).
+    """
+
+    basis: object
+    K: sp.csr_matrix
+    F: np.ndarray
+    kinematics: str
+    material_names: tuple[str, ...]
+    lam: np.ndarray  # (nelems, nqp) coefficient fields, kept for extra loads
+    beta: np.ndarray
+
+    @property
+    def n_field(self) -> int:
+        return self.basis.N
+
+    @property
+    def n_dofs(self) -> int:
+        return self.K.shape[0]
+
+
+def _forms():
+    from skfem import BilinearForm, Functional, LinearForm
+    from skfem.helpers import ddot, sym_grad, trace
+
+    @BilinearForm
+    def stiffness(u, v, w):
+        return 2 * w.mu * ddot(sym_grad(u), sym_grad(v)) + w.lam * trace(sym_grad(u)) * trace(sym_grad(v))
+
+    @LinearForm
+    def trace_load(v, w):
+        return w.c * trace(sym_grad(v))
+
+    @Functional
+    def integral(w):
+        return w.c
+
+    return stiffness, trace_load, integral
+
+
+def vector_quadratic_basis(mesh, intorder: int = 4):
+    """Basis of Q2 (9-node) vector fields on a quadrilateral mesh; order-4 Gauss rule (exact for the
+    Q2 stiffness on affine cells)."""
+    from skfem import Basis, ElementQuad2, ElementVector
+
+    return Basis(mesh, ElementVector(ElementQuad2()), intorder=intorder)
+
+
+def assemble(mesh, material_index, materials: list[IsotropicMaterial], kinematics: str = "gps",
+             intorder: int = 4) -> ThermoelasticSystem:
+    """Stiffness and one unit-θ load per material (θ = 1 in material k, 0 elsewhere)."""
+    stiffness, trace_load, integral = _forms()
+    basis = vector_quadratic_basis(mesh, intorder)
+    idx = np.asarray(material_index, int)
+    props = np.array([moduli_pa(m, kinematics) for m in materials])  # (nmat, 3)
+    nqp = basis.X.shape[1]
+    lam, mu, beta = (np.repeat(props[idx, c][:, None], nqp, axis=1) for c in range(3))
+    K = stiffness.assemble(basis, lam=lam, mu=mu)
+    F = np.column_stack([trace_load.assemble(basis, c=beta * (idx == k)[:, None]) for k in range(len(materials))])
+    if kinematics == "gps":
+        col = trace_load.assemble(basis, c=lam)
+        corner = integral.assemble(basis, c=lam + 2 * mu)
+        K = sp.bmat([[K, sp.csr_matrix(col[:, None])], [sp.csr_matrix(col[None, :]), sp.csr_matrix([[corner]])]])
+        row = np.array([integral.assemble(basis, c=beta * (idx == k)[:, None]) for k in range(len(materials))])
+        F = np.vstack([F, row[None, :]])
+    return ThermoelasticSystem(basis, sp.csr_matrix(K), F, kinematics, tuple(m.name for m in materials), lam, beta)
+
+
+def field_load(system: ThermoelasticSystem, theta) -> np.ndarray:
+    """Load vector of a spatially varying thermal strain ``theta(x_m, y_m)`` (every material)."""
+    _, trace_load, integral = _forms()
+    x = system.basis.mapping.F(system.basis.X)  # quadrature points (2, nelems, nqp)
+    c = system.beta * theta(x[0], x[1])
+    f = trace_load.assemble(system.basis, c=c)
+    if system.kinematics == "gps":
+        f = np.append(f, integral.assemble(system.basis, c=c))
+    return f
+
+
+def nearest_node_dofs(basis, point_m) -> np.ndarray:
+    """(x-dof, y-dof) of the mesh vertex nearest to ``point_m``."""
+    p = basis.mesh.p
+    k = int(np.argmin((p[0] - point_m[0]) ** 2 + (p[1] - point_m[1]) ** 2))
+    return basis.nodal_dofs[:, k]
+
+
+def determinate_supports(basis, bottom_m, top_m) -> np.ndarray:
+    """Three constraints that remove the rigid-body modes and nothing else: both components at
+    ``bottom_m``, the x component at ``top_m`` (a point vertically above)."""
+    a, b = nearest_node_dofs(basis, bottom_m), nearest_node_dofs(basis, top_m)
+    return np.array([a[0], a[1], b[0]])
+
+
+class Factorized:
+    """The stiffness with some dofs prescribed, LU-factorised once; :meth:`solve` takes many loads."""
+
+    def __init__(self, K: sp.spmatrix, fixed_dofs: np.ndarray):
+        n = K.shape[0]
+        self.n = n
+        self.fixed = np.unique(np.asarray(fixed_dofs, int))
+        self.free = np.setdiff1d(np.arange(n), self.fixed)
+        K = sp.csr_matrix(K)
+        self.K_fixed_cols = K[self.free][:, self.fixed]
+        self.lu = splu(sp.csc_matrix(K[self.free][:, self.free]), permc_spec="COLAMD")
+
+    def solve(self, loads: np.ndarray, fixed_values: np.ndarray | None = None) -> np.ndarray:
+        """Solutions (n, m) for loads (n, m) (or (n,)); prescribed values default to 0."""
+        f = np.asarray(loads, float)
+        single = f.ndim == 1
+        f = f[:, None] if single else f
+        u = np.zeros((self.n, f.shape[1]))
+        rhs = f[self.free]
+        if fixed_values is not None:
+            g = np.asarray(fixed_values, float).reshape(self.fixed.size, -1)
+            u[self.fixed] = g
+            rhs = rhs - self.K_fixed_cols @ g
+        u[self.free] = self.lu.solve(np.ascontiguousarray(rhs))
+        return u[:, 0] if single else u
+
+
+def strain_energy_j_per_m(system: ThermoelasticSystem, u: np.ndarray) -> float:
+    """½ uᵀ K u [J per metre of depth]: the elastic energy of a solution of K u = f."""
+    return 0.5 * float(u @ (system.K @ u))

@@ -1,0 +1,103 @@
+"""Package stress from the finite-element model: CTE mismatch of board / solder / leadframe / attach /
+die / mould → anchor motion on the die → gap change → bias and scale factor (sim.fem).
+
+Unlike ``package_stress`` (one fitted coupling), the bias here follows from geometry and
+materials: mould CTE, attach modulus and thickness, die thickness, die placement and where the
+comb cell sits on the die. A symmetric package with a centred cell gives exactly zero bias (the
+datasheet's TCOff is a population spread driven by asymmetries: docs/fem.md).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from sim.microstructure import CombGeometry
+from twin.effects._common import REFERENCE_C
+from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.errors import ModelError
+
+_GRID_C = np.arange(-60.0, 150.0 + 1e-9, 0.25)  # fixed grid: a sample never depends on the others (causal)
+_MEMO = "design memo package-stress.md §3"
+
+
+def _fixed(name, unit, default, bounds, source):
+    return Parameter(name, unit, default, bounds, source, role="fixed", free=False)
+
+
+@lru_cache(maxsize=128)
+def _tables(design, layout, geometry: CombGeometry, reading: str, reference_c: float):
+    """Bias [g] and package scale factor [1] on the grid: one FE solve (cached per design), then
+    interpolation for any number of samples."""
+    from sim.fem.comb_on_substrate import package_drift
+    from sim.fem.package_stack import solve_stack
+
+    drift = package_drift(solve_stack(design), layout, geometry, _GRID_C, reading, reference_c)
+    offset, sf = drift.offset_mg * 1e-3, drift.scale_factor_ppm * 1e-6
+    return offset - np.interp(reference_c, _GRID_C, offset), sf - np.interp(reference_c, _GRID_C, sf)
+
+
+@register
+class PackageFem(Effect):
+    name = "package_fem"
+    family = "bias_tc"
+    description = ("package CTE mismatch solved by finite elements (generalised plane strain, Q2) and carried to "
+                   "the comb's anchors: bias and scale factor from geometry and materials (docs/fem.md)")
+    reads = ("die_c", "applied_g")
+    parameters = (
+        Parameter("bias_scale", "1", 1.0, (-20.0, 20.0), "1 = as computed; a fitted value scales the asymmetry "
+                  "(population spread, memo §0 item 2)"),
+        Parameter("scale_factor_scale", "1", 1.0, (0.0, 20.0), "1 = as computed", free=False),
+        _fixed("mould_cte_ppm_per_k", "ppm/K", 11.0, (3.0, 60.0), f"EMC-G845 α1 ({_MEMO} [S13])"),
+        _fixed("attach_modulus_gpa", "GPa", 3.9, (0.001, 20.0), f"84-1LMISR4 at 25 °C ({_MEMO} [S13])"),
+        _fixed("attach_thickness_um", "um", 25.0, (5.0, 200.0), f"15-40 µm typical ({_MEMO} [S13])"),
+        _fixed("die_thickness_um", "um", 400.0, (150.0, 1000.0), "die + cap, 0.3-0.7 mm (memo §3, assumption)"),
+        _fixed("die_offset_um", "um", 0.0, (-500.0, 500.0), "die placement relative to the package centre"),
+        _fixed("cell_offset_um", "um", 300.0, (-600.0, 600.0), "sense cell centre relative to the die centre "
+               "(assumption: a 3-axis die cannot centre every cell)"),
+        _fixed("spring_half_span_um", "um", 400.0, (10.0, 900.0), "spring anchors at ±400 µm (memo §1.2)"),
+        _fixed("electrode_half_span_um", "um", 100.0, (0.0, 900.0), "electrode anchors at ±100 µm (memo §1.2)"),
+        REFERENCE_C,
+    )
+
+    def design(self, **overrides):
+        """The :class:`sim.fem.package_stack.PackageDesign` of the current parameters."""
+        from sim.fem.package_stack import PackageDesign
+
+        v = self.values
+        try:
+            return PackageDesign(die_thickness_um=v["die_thickness_um"], die_offset_um=v["die_offset_um"],
+                                 attach_thickness_um=v["attach_thickness_um"],
+                                 attach_modulus_gpa=v["attach_modulus_gpa"],
+                                 mould_cte_ppm_per_k=v["mould_cte_ppm_per_k"], **overrides)
+        except ValueError as exc:
+            raise ModelError(f"effect {self.name!r}: {exc}") from None
+
+    def layout(self):
+        """The :class:`sim.fem.comb_on_substrate.AnchorLayout` of the current parameters."""
+        from sim.fem.comb_on_substrate import AnchorLayout
+
+        v = self.values
+        return AnchorLayout(v["cell_offset_um"], v["spring_half_span_um"], v["electrode_half_span_um"])
+
+    def geometry(self) -> CombGeometry:
+        return self.context.get("geometry") or CombGeometry()
+
+    def tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(temperature grid [°C], bias [g], scale factor [1]) per unit amplitude."""
+        try:
+            offset, sf = _tables(self.design(), self.layout(), self.geometry(), "H", self.values["reference_c"])
+        except ValueError as exc:
+            raise ModelError(f"effect {self.name!r}: {exc}") from None
+        return _GRID_C, offset, sf
+
+    def basis(self, inputs):
+        die = np.asarray(inputs.die_c, float)
+        if die.size and (die.min() < _GRID_C[0] or die.max() > _GRID_C[-1]):
+            raise ModelError(f"effect {self.name!r}: die temperature {die.min():.1f}..{die.max():.1f} °C is outside "
+                             f"the tabulated {_GRID_C[0]:g}..{_GRID_C[-1]:g} °C")
+        grid, offset, sf = self.tables()
+        # offset and sf are smooth in T (α(T) quadratic): linear interpolation on 0.25 °C loses < 1e-6 relative
+        return {"bias_scale": Contribution(bias_g=np.interp(die, grid, offset)),
+                "scale_factor_scale": Contribution(scale_factor=np.interp(die, grid, sf))}

@@ -1,0 +1,142 @@
+"""Off-screen pyvista images of the solved package cross-section (sim.fem), deformed and coloured
+by displacement magnitude; a temperature sweep as a GIF. The displacement is from the stress-free
+(cure) state, drawn × ``exaggeration`` (stated in the title). pyvista is imported inside the
+functions so that ``import twin`` stays light; headless use goes through :mod:`twin.reporting.render`'s
+EGL set-up."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+MM = 1e3
+
+
+def _pyvista():
+    if not os.environ.get("DISPLAY"):
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    return pv
+
+
+def _grid(sol):
+    """The mesh's quadrilaterals (corner nodes) as a pyvista grid [mm], material per cell."""
+    pv = _pyvista()
+    mesh = sol.system.basis.mesh
+    points = np.column_stack([mesh.p[0] * MM, mesh.p[1] * MM, np.zeros(mesh.p.shape[1])])
+    cells = np.hstack([np.full((mesh.t.shape[1], 1), 4), mesh.t.T]).ravel()
+    grid = pv.UnstructuredGrid(cells, np.full(mesh.t.shape[1], pv.CellType.QUAD, np.uint8), points)
+    grid.cell_data["material"] = sol.material_index
+    return grid, points
+
+
+def vertex_displacement_m(sol, temperature_c: float) -> np.ndarray:
+    """(n_vertices, 2) displacement [m] at the mesh corners at ``temperature_c`` (from the cure state)."""
+    u = sol.displacement(temperature_c)
+    return u[sol.system.basis.nodal_dofs].T
+
+
+def _deform(grid, rest, sol, temperature_c, exaggeration):
+    d = vertex_displacement_m(sol, temperature_c)
+    grid.points = rest + exaggeration * np.column_stack([d * MM, np.zeros(len(d))])
+    mag_um = np.linalg.norm(d, axis=1) * 1e6
+    grid.point_data["displacement [um]"] = mag_um
+    return float(mag_um.max())
+
+
+def _title(temperature_c, exaggeration):
+    return f"T = {temperature_c:.1f} °C   displacement from cure x{exaggeration:g}"
+
+
+def _plotter(pv):
+    p = pv.Plotter(off_screen=True, window_size=(1100, 500))
+    p.set_background("white")
+    return p
+
+
+def _draw(p, grid, clim, title):
+    p.add_mesh(grid, scalars="displacement [um]", cmap="viridis", clim=clim, show_edges=True, edge_color="gray",
+               line_width=0.3, scalar_bar_args={"title": "|u| [µm]", "color": "black", "fmt": "%.1f"})
+    p.add_text(title, font_size=11, color="black", name="title")
+    p.view_xy()
+    p.camera.zoom(1.3)
+
+
+def _write(path: Path, write):
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp{path.suffix}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def render_fem_png(sol, temperature_c: float, path: str | Path, *, exaggeration: float = 50.0) -> Path:
+    """One image of the cross-section deformed at ``temperature_c``, written atomically."""
+    pv = _pyvista()
+    grid, rest = _grid(sol)
+    peak = _deform(grid, rest, sol, temperature_c, exaggeration)
+
+    def write(tmp):
+        p = _plotter(pv)
+        try:
+            _draw(p, grid, [0.0, max(peak, 1e-9)], _title(temperature_c, exaggeration))
+            p.screenshot(str(tmp))
+        finally:
+            p.close()
+
+    return _write(path, write)
+
+
+def render_fem_sweep(sol, temperatures_c, path: str | Path, *, exaggeration: float = 50.0, progress=None) -> Path:
+    """Animated GIF (or MP4 by suffix), one frame per temperature, colour scale fixed over the sweep. Each frame costs a
+    linear combination of the unit-load solutions, not a solve."""
+    pv = _pyvista()
+    temps = np.asarray(temperatures_c, float)
+    grid, rest = _grid(sol)
+    peak = max(_deform(grid, rest, sol, t, exaggeration) for t in temps)
+
+    def write(tmp):
+        p = _plotter(pv)
+        try:
+            _deform(grid, rest, sol, temps[0], exaggeration)
+            _draw(p, grid, [0.0, max(peak, 1e-9)], _title(temps[0], exaggeration))
+            if Path(path).suffix.lower() == ".mp4":  # needs imageio-ffmpeg
+                p.open_movie(str(tmp), framerate=4)
+            else:
+                p.open_gif(str(tmp), fps=4)
+            for t in temps:
+                _deform(grid, rest, sol, t, exaggeration)
+                p.add_text(_title(t, exaggeration), font_size=11, color="black", name="title")
+                p.write_frame()
+                if progress is not None:
+                    progress(t)
+        finally:
+            p.close()
+
+    return _write(path, write)
+
+
+def render_package(loaded, output: str | Path, *, temperature_c: float | None = None, sweep_c=None,
+                   exaggeration: float = 50.0, progress=None) -> dict:
+    """``twin render --fem``: the scenario's package_fem design solved and drawn (PNG or sweep GIF)."""
+    from sim.fem.package_stack import solve_stack
+    from twin.reporting.package_report import package_effect
+
+    effect, _ = package_effect(loaded)
+    sol = solve_stack(effect.design())
+    if sweep_c is None:
+        render_fem_png(sol, temperature_c, output, exaggeration=exaggeration)
+        temps = [float(temperature_c)]
+    else:
+        render_fem_sweep(sol, sweep_c, output, exaggeration=exaggeration, progress=progress)
+        temps = [float(t) for t in sweep_c]
+    return {"output": str(output), "temperatures_c": temps, "frames": len(temps), "exaggeration": exaggeration,
+            "dofs": sol.n_dofs, "field": "package_fem"}
