@@ -8,7 +8,7 @@ TWIN   := $(VENV)/bin/twin
 STAMP  := $(VENV)/.installed
 TOFU   := ../shared/data/real/tofupilot_imu_thermal/imu_raw_data.tsv
 
-.PHONY: run test install bench clean
+.PHONY: run test test-long install bench clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -47,6 +47,10 @@ run: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -q
 
+# the property-based tests' long profile (20,000 examples each; hours): make test runs a fixed budget
+test-long: $(STAMP)
+	HYPOTHESIS_PROFILE=long $(PY) -m pytest -q tests/test_properties_model.py tests/test_properties_logs.py
+
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e '.[test,bench]'
 	$(PY) benchmarks/bench_simulate.py --json out/bench_simulate.json
@@ -56,6 +60,8 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_calibrate.py --json out/bench_calibrate.json
 	$(PY) benchmarks/bench_diagnosis.py --seeds 200 --json out/bench_diagnosis.json
 	$(PY) benchmarks/bench_fitting.py --json out/bench_fitting.json
+	$(PY) benchmarks/bench_fem.py --json out/bench_fem.json
+	$(PY) benchmarks/bench_fleet.py --json out/bench_fleet.json
 	$(TWIN) benchmark scenarios/paper_iis328dq.yaml --seeds 3 --json out/benchmark.json --report out/benchmark
 
 clean:

@@ -9,7 +9,9 @@ import pytest
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENARIOS = sorted(p for p in (ROOT / "scenarios").glob("*.yaml") if not p.stem.startswith("study_"))  # studies: test_doe
+# studies (test_doe) and fleet specs (test_fleet) are not scenarios
+SCENARIOS = sorted(p for p in (ROOT / "scenarios").glob("*.yaml")
+                   if not p.stem.startswith("study_") and p.stem != "fleet_mixed")
 SHARED = ROOT.parent / "shared"
 
 try:  # property-based tests: a fixed, derandomised budget in CI; HYPOTHESIS_PROFILE=long locally

@@ -1,0 +1,139 @@
+"""Running a fleet: every pending unit on a local process pool or a Dask cluster, each finished
+unit appended durably to ``units.jsonl`` (see :mod:`twin.fleet.ledger`), so a rerun of the same
+command skips the finished units and a killed run resumes without losing or duplicating any.
+
+Workers of the local pool die with their parent (Linux: ``PR_SET_PDEATHSIG``), so a killed fleet
+leaves no orphan analysing units. ``--scheduler`` attaches to a running Dask scheduler; one that
+does not answer within ``connect_timeout_s`` is one line, not a hang.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import signal
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from twin.fleet.ledger import LEDGER, append_record, exclusive, open_ledger
+from twin.fleet.spec import FleetError, FleetSpec
+from twin.fleet.units import evaluate_unit
+
+
+@dataclass
+class FleetRun:
+    """The records of every finished unit (sorted by unit id) and what this run did."""
+
+    records: list[dict]
+    ran: int = 0
+    skipped: int = 0
+    torn_dropped: bool = False
+    temporaries_removed: int = 0
+    notes: list[str] = field(default_factory=list)
+
+
+def die_with_parent() -> None:
+    """Pool initialiser: end this worker when its parent dies, a kill -9 included (Linux: the
+    kernel's PR_SET_PDEATHSIG; elsewhere, and as a backstop, a thread polling the parent)."""
+    parent = os.getppid()
+    if sys.platform.startswith("linux"):
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # 1 = PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
+def dask_client(scheduler: str | None, workers: int, connect_timeout_s: float = 10.0, processes: bool = True):
+    """A client on ``scheduler``, or on a new LocalCluster of ``workers`` single-threaded processes
+    (``processes=False``: threads of this process, which start in a second rather than tens).
+
+    Raises
+    ------
+    FleetError
+        The scheduler does not answer within ``connect_timeout_s`` (one line, with what to do).
+    """
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        raise FleetError("--executor dask needs dask.distributed (pip install 'dask[distributed]')") from None
+    if scheduler is None:
+        cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1, processes=processes,
+                               dashboard_address=None)
+        return Client(cluster)
+    try:
+        return Client(scheduler, timeout=connect_timeout_s)
+    except (OSError, TimeoutError, ValueError) as exc:
+        reason = " ".join(str(exc).split())[:160]
+        raise FleetError(f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout_s:g} s "
+                         f"({reason}); start one with 'dask scheduler' and 'dask worker ADDRESS', or drop "
+                         "--scheduler for a local cluster") from None
+
+
+def _record(log: Path, rec: dict, done: dict, tick) -> None:
+    append_record(log, rec)
+    done[rec["unit"]] = rec
+    tick(rec)
+
+
+def run_fleet(spec: FleetSpec, out_dir: Path, workers: int = 1, executor: str = "local",
+              scheduler: str | None = None, progress=None, connect_timeout_s: float = 10.0,
+              dask_processes: bool = True) -> FleetRun:
+    """Analyse every unit not yet in ``out_dir/units.jsonl``; return all finished records by unit id.
+
+    A unit that errs is recorded with its error (and is not retried by a rerun: delete its line to
+    retry it). ``progress(record | None)`` is called once per unit, skipped ones included.
+    """
+    if executor not in ("local", "dask"):
+        raise FleetError(f"--executor must be 'local' or 'dask', got {executor!r}")
+    out_dir = Path(out_dir)
+    with exclusive(out_dir):
+        state = open_ledger(out_dir)
+        log = out_dir / LEDGER
+        done = dict(state.records)
+        pending = [u for u in spec.units if u.id not in done]
+        tick = progress or (lambda r: None)
+        for _ in range(len(spec.units) - len(pending)):
+            tick(None)
+        settings, where = spec.settings(), str(out_dir.resolve())
+        jobs = [{"unit": u.id, "files": u.files} for u in pending]
+        if jobs and executor == "dask":
+            from dask.distributed import as_completed
+
+            client = dask_client(scheduler, workers, connect_timeout_s, dask_processes)
+            try:
+                futures = [client.submit(evaluate_unit, j, settings, where, pure=False) for j in jobs]
+                for fut in as_completed(futures):
+                    _record(log, fut.result(), done, tick)
+            finally:
+                cluster = client.cluster
+                client.close()
+                if cluster is not None:
+                    cluster.close()
+        elif jobs and workers > 1:
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+
+            with ProcessPoolExecutor(workers, initializer=die_with_parent) as ex:
+                futures = [ex.submit(evaluate_unit, j, settings, where) for j in jobs]
+                for fut in as_completed(futures):
+                    _record(log, fut.result(), done, tick)
+        else:
+            for j in jobs:
+                _record(log, evaluate_unit(j, settings, where), done, tick)
+    ids = {u.id for u in spec.units}
+    records = [done[k] for k in sorted(done) if k in ids]
+    notes = []
+    if state.torn_dropped:
+        notes.append(f"{log}: its last line was torn by a kill; dropped, and that unit ran again")
+    if state.temporaries_removed:
+        notes.append(f"removed {state.temporaries_removed} temporary file(s) a killed run left in {out_dir}")
+    return FleetRun(records, len(jobs), len(spec.units) - len(jobs), state.torn_dropped, state.temporaries_removed, notes)

@@ -1,0 +1,249 @@
+"""A simulated fleet for testing: N units drawn from a fleet scenario, each unit's canonical CSV
+written, and the truth kept apart in ``truth.json`` (the fleet's analysis never reads it).
+
+A fleet scenario names a base scenario (the twin and the test every unit goes through), the unit
+count, a seed, per-unit spreads (``vary``) and hidden effects, each with a prevalence and the
+scenario values it sets (``set``) or draws (``draw``). Unit i draws from the seed sequence
+(seed, i) only, so a unit is the same whatever the order, the worker or the other units.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from twin.fleet.spec import FleetError
+from twin.io import atomic_write_text
+from twin.text import did_you_mean, load_yaml_mapping
+
+KEYS = ("name", "description", "base", "units", "seed", "id_prefix", "draw", "logger_rate_hz", "vary", "effects")
+EFFECT_KEYS = ("prevalence", "family", "set", "draw")
+DISTRIBUTIONS = ("uniform", "loguniform", "normal", "choice")
+
+
+@dataclass
+class FleetScenario:
+    """A fleet scenario, resolved: the base scenario's data and the draws of every unit."""
+
+    base: dict
+    base_path: str
+    units: int
+    seed: int = 0
+    id_prefix: str = "unit"
+    exclusive: bool = True
+    logger_rate_hz: float | None = None
+    vary: dict = field(default_factory=dict)
+    effects: dict = field(default_factory=dict)
+    name: str = ""
+
+    def unit_id(self, i: int) -> str:
+        return f"{self.id_prefix}{i:0{max(4, len(str(self.units - 1)))}d}"
+
+
+def _check_distribution(spec, where: str) -> None:
+    if isinstance(spec, (int, float, str)) and not isinstance(spec, bool):
+        return
+    if not (isinstance(spec, dict) and len(spec) == 1 and next(iter(spec)) in DISTRIBUTIONS):
+        raise FleetError(f"{where}: expected a number or one of {{{', '.join(DISTRIBUTIONS)}: [...]}}, got {spec!r}")
+    kind, args = next(iter(spec.items()))
+    if kind != "choice" and not (isinstance(args, list) and len(args) == 2
+                                 and all(isinstance(a, (int, float)) for a in args)):
+        raise FleetError(f"{where}: {kind} takes two numbers, got {args!r}")
+    if kind in ("uniform", "loguniform") and not args[0] <= args[1] or kind == "loguniform" and args[0] <= 0:
+        raise FleetError(f"{where}: {kind} needs 0 < low <= high (loguniform) or low <= high, got {args}")
+    if kind == "choice" and not (isinstance(args, list) and args):
+        raise FleetError(f"{where}: choice takes a non-empty list")
+
+
+def draw_value(spec, rng: np.random.Generator):
+    """One draw of a distribution spec (a constant is itself)."""
+    if not isinstance(spec, dict):
+        return spec
+    kind, args = next(iter(spec.items()))
+    if kind == "uniform":
+        return float(rng.uniform(*args))
+    if kind == "loguniform":
+        return float(np.exp(rng.uniform(np.log(args[0]), np.log(args[1]))))
+    if kind == "normal":
+        return float(rng.normal(*args))
+    return args[int(rng.integers(len(args)))]
+
+
+def load_fleet_scenario(path: str | Path) -> FleetScenario:
+    """Read and check a fleet scenario (one-line errors naming the file, line and key)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FleetError(f"{path}: fleet scenario not found")
+    data, lines = load_yaml_mapping(path.read_text(encoding="utf-8"), str(path), "a fleet scenario is a YAML mapping")
+    at = lambda *key: f"{path}:{lines.get(tuple(key), lines.get(key[:1], 1))}"  # noqa: E731
+    for key in data:
+        if key not in KEYS:
+            raise FleetError(f"{at(key)}: unknown key {key!r}{did_you_mean(key, KEYS, label='valid keys')}")
+    for key in ("base", "units"):
+        if key not in data:
+            raise FleetError(f"{path}: missing key {key!r}")
+    n = data["units"]
+    if not isinstance(n, int) or isinstance(n, bool) or not 1 <= n <= 100_000:
+        raise FleetError(f"{at('units')}: units must be an integer in 1..100000, got {n!r}")
+    base_path = path.parent / str(data["base"])
+    if not base_path.is_file():
+        raise FleetError(f"{at('base')}: base scenario {base_path} not found")
+    from twin.model.scenario import load_scenario
+
+    load_scenario(base_path)  # a broken base is the base's error, named there
+    base = yaml.safe_load(base_path.read_text(encoding="utf-8"))
+    if data.get("draw", "exclusive") not in ("exclusive", "independent"):
+        raise FleetError(f"{at('draw')}: draw must be 'exclusive' (at most one effect per unit) or 'independent'")
+    vary = data.get("vary") or {}
+    for k, spec in vary.items():
+        _check_distribution(spec, f"{at('vary', k)}: vary.{k}")
+    effects = data.get("effects") or {}
+    for name, e in effects.items():
+        if not isinstance(e, dict):
+            raise FleetError(f"{at('effects', name)}: effects.{name} is a mapping (prevalence, set, draw)")
+        for key in e:
+            if key not in EFFECT_KEYS:
+                raise FleetError(f"{at('effects', name, key)}: unknown key {key!r} in effects.{name}"
+                                 f"{did_you_mean(key, EFFECT_KEYS, label='valid keys')}")
+        p = e.get("prevalence")
+        if not isinstance(p, (int, float)) or isinstance(p, bool) or not 0 <= p <= 1:
+            raise FleetError(f"{at('effects', name)}: effects.{name}.prevalence must be in [0, 1], got {p!r}")
+        for k, spec in (e.get("draw") or {}).items():
+            _check_distribution(spec, f"{at('effects', name, 'draw', k)}: effects.{name}.draw.{k}")
+    exclusive = data.get("draw", "exclusive") == "exclusive"
+    if exclusive and sum(e["prevalence"] for e in effects.values()) > 1 + 1e-12:
+        raise FleetError(f"{at('effects')}: with draw: exclusive the prevalences must sum to at most 1")
+    fs = FleetScenario(base, str(base_path.resolve()), n, int(data.get("seed", 0)), str(data.get("id_prefix", "unit")),
+                       exclusive, data.get("logger_rate_hz"), vary, effects, str(data.get("name", path.stem)))
+    unit_scenario(fs, 0)  # every path set or drawn must give a valid scenario: checked on unit 0
+    return fs
+
+
+def family_of(name: str, entry: dict) -> str:
+    from twin.effects import REGISTRY
+
+    return entry.get("family") or (REGISTRY[name].family if name in REGISTRY else name)
+
+
+def draw_unit(fs: FleetScenario, i: int) -> tuple[dict, dict]:
+    """(scenario data, truth) of unit ``i``, from the seed sequence (seed, i) alone."""
+    from twin.studies.design import set_path
+
+    rng = np.random.default_rng(np.random.SeedSequence([fs.seed, i]))
+    data = copy.deepcopy(fs.base)
+    data["seed"] = int(rng.integers(2**31 - 1))
+    if fs.logger_rate_hz is not None:
+        set_path(data, "test_plan.logger_rate_hz", float(fs.logger_rate_hz))
+    u = float(rng.random())
+    carried, edge = [], 0.0
+    for name, e in fs.effects.items():  # exclusive: one uniform draw picks at most one effect
+        if fs.exclusive:
+            if edge <= u < edge + e["prevalence"]:
+                carried.append(name)
+            edge += e["prevalence"]
+        elif rng.random() < e["prevalence"]:
+            carried.append(name)
+    params = {}
+    for key in sorted(fs.vary):
+        params[key] = draw_value(fs.vary[key], rng)
+        set_path(data, key, params[key])
+    for name in fs.effects:
+        e = fs.effects[name]
+        drawn = {k: draw_value(spec, rng) for k, spec in sorted((e.get("draw") or {}).items())}
+        if name in carried:  # drawn for every unit, so one unit's values do not shift the others'
+            for k, v in {**(e.get("set") or {}), **drawn}.items():
+                set_path(data, k, v)
+            params.update(drawn)
+    truth = {"unit": fs.unit_id(i), "effects": carried, "families": [family_of(n, fs.effects[n]) for n in carried],
+             "parameters": params, "seed": data["seed"]}
+    return data, truth
+
+
+def unit_scenario(fs: FleetScenario, i: int):
+    """The validated scenario of unit ``i`` (a bad path or value names the fleet scenario's unit)."""
+    from twin.model.scenario import parse_scenario
+
+    data, _ = draw_unit(fs, i)
+    return parse_scenario(yaml.safe_dump(data, sort_keys=False), f"<fleet unit {fs.unit_id(i)}>")
+
+
+def simulate_unit(fs: FleetScenario, i: int, path: str) -> str:
+    """Simulate unit ``i`` and write its logged columns (no truth) as canonical CSV at ``path``."""
+    from twin.measurement import from_dataset, write_canonical_csv
+    from twin.model.simulate import simulate
+
+    m = from_dataset(simulate(unit_scenario(fs, i)))
+    write_canonical_csv(path, m.time_s, m.temperature_c, m.output_g, m.applied_g, m.run_index, m.power_on)
+    return path
+
+
+def truth_document(fs: FleetScenario) -> dict:
+    """Every unit's hidden effects and drawn values, and the true prevalence of each effect."""
+    units = [draw_unit(fs, i)[1] for i in range(fs.units)]
+    prev = {name: sum(name in t["effects"] for t in units) / fs.units for name in fs.effects}
+    return {"fleet": fs.name, "seed": fs.seed, "units": units, "prevalence": prev,
+            "families": {name: family_of(name, e) for name, e in fs.effects.items()}}
+
+
+def simulate_fleet(fleet_scenario: str | Path, out_dir: str | Path, workers: int = 1, progress=None) -> dict:
+    """Write ``out_dir/logs/<unit>.csv`` for every unit (skipping those already written: atomic
+    writes), ``out_dir/truth.json`` and ``out_dir/fleet.yaml`` (the spec that analyses the logs)."""
+    from twin.fleet.ledger import remove_temporaries
+    from twin.fleet.runner import die_with_parent
+
+    fs = load_fleet_scenario(fleet_scenario)
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise FleetError(f"{out}: the output must be a folder, and this is a file")
+    logs = out / "logs"
+    logs.mkdir(parents=True, exist_ok=True)
+    remove_temporaries(out)
+    truth = truth_document(fs)
+    atomic_write_text(out / "truth.json", json.dumps(truth, indent=1) + "\n")
+    spec = {"name": fs.name, "command": "compare", "scenario": os.path.relpath(fs.base_path, out.resolve()),
+            "units": "logs/*.csv"}
+    atomic_write_text(out / "fleet.yaml", "# written by twin fleet-simulate; truth.json is never read by twin fleet\n"
+                      + yaml.safe_dump(spec, sort_keys=False))
+    tick = progress or (lambda: None)
+    todo = []
+    for i in range(fs.units):
+        if (logs / f"{fs.unit_id(i)}.csv").is_file():
+            tick()
+        else:
+            todo.append(i)
+    if workers > 1 and len(todo) > 1:
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        with ProcessPoolExecutor(workers, initializer=die_with_parent) as ex:
+            for f in as_completed([ex.submit(simulate_unit, fs, i, str(logs / f"{fs.unit_id(i)}.csv")) for i in todo]):
+                f.result()
+                tick()
+    else:
+        for i in todo:
+            simulate_unit(fs, i, str(logs / f"{fs.unit_id(i)}.csv"))
+            tick()
+    return {"output": str(out), "units": fs.units, "written": len(todo), "spec": str(out / "fleet.yaml"),
+            "truth": str(out / "truth.json"), "prevalence": truth["prevalence"]}
+
+
+def score_against_truth(pop: dict, truth: dict) -> dict:
+    """Estimated prevalence against the truth of the same units, in percentage points, three ways:
+    the share of units whose finding names the effect itself (``error_pp``), names any effect of
+    its family (``family_error_pp``), or names one of its family first (``primary_error_pp``)."""
+    out = {}
+    for name, true_share in truth["prevalence"].items():
+        fam = truth["families"][name]
+        est = pop["prevalence"].get(name, {}).get("share", 0.0)
+        est_fam = pop["prevalence_by_family"].get(fam, {}).get("share", 0.0)
+        est_first = pop.get("prevalence_primary_family", {}).get(fam, {}).get("share", 0.0)
+        out[name] = {"true_percent": 100 * true_share, "family": fam,
+                     "estimated_percent": 100 * est, "error_pp": 100 * (est - true_share),
+                     "estimated_family_percent": 100 * est_fam, "family_error_pp": 100 * (est_fam - true_share),
+                     "estimated_primary_percent": 100 * est_first, "primary_error_pp": 100 * (est_first - true_share)}
+    return out

@@ -1,0 +1,163 @@
+"""The fleet file: which analysis, which twin, and the units (one glob, a folder, or a mapping of
+unit ids to files); several files of one unit are runs of that unit."""
+
+from __future__ import annotations
+
+import glob as globlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from twin.errors import TwinError
+from twin.text import did_you_mean, load_yaml_mapping
+
+COMMANDS = ("compare", "calibrate")
+TOP_KEYS = ("name", "description", "command", "scenario", "units", "columns", "options", "outlier_threshold")
+OPTIONS = {
+    "compare": {"with_effects": list, "average_s": (int, float), "applied_g": (int, float, str),
+                "skip_bad_rows": bool, "report": bool, "refit": bool},
+    "calibrate": {"imu": (int, str), "skip_bad_rows": bool, "reverse": bool},
+}
+DEFAULTS = {"with_effects": [], "average_s": 10.0, "applied_g": 1.0, "skip_bad_rows": False, "report": False,
+            "refit": False, "imu": "all", "reverse": True}
+
+
+class FleetError(TwinError):
+    """A fleet file, its units or its output folder is not usable."""
+
+
+@dataclass
+class Unit:
+    """One unit: its id and its log files (several files are several runs)."""
+
+    id: str
+    files: list[str]
+
+
+@dataclass
+class FleetSpec:
+    """A resolved fleet: the analysis, its twin scenario (compare), the units and their options."""
+
+    units: list[Unit]
+    command: str = "compare"
+    scenario: str | None = None
+    columns: dict = field(default_factory=dict)
+    options: dict = field(default_factory=dict)
+    name: str = ""
+    source: str = "<glob>"
+    outlier_threshold: float = 3.5
+
+    def settings(self) -> dict:
+        """What a worker needs besides the unit (plain data, picklable)."""
+        return {"command": self.command, "scenario": self.scenario, "columns": dict(self.columns),
+                "options": {**{k: DEFAULTS[k] for k in OPTIONS[self.command]}, **self.options}}
+
+
+def _unit_files(folder: Path) -> list[str]:
+    """The log files of a unit's folder, sorted (hidden files skipped)."""
+    return [str(p) for p in sorted(folder.iterdir()) if p.is_file() and not p.name.startswith(".")]
+
+
+def discover_units(pattern, base: Path, where: str) -> list[Unit]:
+    """Units from a glob or folder (each file is a unit named by its stem, each folder a unit named
+    by its name) or from a mapping id → glob or list of files."""
+    units: list[Unit] = []
+    if isinstance(pattern, dict):
+        for uid, files in pattern.items():
+            pats = [files] if isinstance(files, str) else files
+            if not isinstance(pats, list) or not all(isinstance(p, str) for p in pats):
+                raise FleetError(f"{where}: units.{uid}: expected a glob or a list of files")
+            found = sorted({m for p in pats for m in globlib.glob(str(base / p))})
+            if not found:
+                raise FleetError(f"{where}: units.{uid}: no file matches {', '.join(pats)}")
+            units.append(Unit(str(uid), found))
+    elif isinstance(pattern, str):
+        target = base / pattern
+        matches = [target / p.name for p in sorted(target.iterdir())] if target.is_dir() else \
+            [Path(m) for m in sorted(globlib.glob(str(target)))]
+        for m in matches:
+            if m.name.startswith("."):
+                continue
+            if m.is_dir():
+                files = _unit_files(m)
+                if files:
+                    units.append(Unit(m.name, files))
+            else:
+                units.append(Unit(m.stem, [str(m)]))
+        if not units:
+            raise FleetError(f"{where}: units: nothing matches {pattern!r} (relative to {base})")
+    else:
+        raise FleetError(f"{where}: units: expected a glob, a folder or a mapping of unit ids to files")
+    seen: dict[str, Unit] = {}
+    for u in units:
+        if u.id in seen:
+            raise FleetError(f"{where}: two units are named {u.id!r} ({seen[u.id].files[0]} and {u.files[0]}); "
+                             "give them a mapping of unit ids to files")
+        seen[u.id] = u
+    return sorted(units, key=lambda u: u.id)
+
+
+def load_fleet_spec(spec: str | Path, scenario: str | Path | None = None, command: str | None = None) -> FleetSpec:
+    """A fleet YAML, or a glob/folder of units (then ``scenario`` gives the twin).
+
+    Raises
+    ------
+    FleetError
+        One line naming the file and key: unknown keys (with "did you mean"), a command other than
+        compare or calibrate, no units, a compare without a scenario.
+    """
+    path = Path(spec)
+    if path.suffix in (".yaml", ".yml") and not path.is_file() and not any(c in str(spec) for c in "*?["):
+        raise FleetError(f"{path}: fleet file not found")
+    if path.is_file() and path.suffix in (".yaml", ".yml"):
+        text = path.read_text(encoding="utf-8")
+        data, lines = load_yaml_mapping(text, str(path), "a fleet file is a YAML mapping")
+        where = lambda key: f"{path}:{lines.get((key,), 1)}"  # noqa: E731
+        for key in data:
+            if key not in TOP_KEYS:
+                raise FleetError(f"{where(key)}: unknown key {key!r}{did_you_mean(key, TOP_KEYS, label='valid keys')}")
+        base = path.parent
+        cmd = command or data.get("command", "compare")
+        scn = scenario if scenario is not None else (str(base / data["scenario"]) if data.get("scenario") else None)
+        if "units" not in data:
+            raise FleetError(f"{path}: missing key 'units' (a glob, a folder, or unit id → files)")
+        units = discover_units(data["units"], base, where("units"))
+        columns, options = data.get("columns") or {}, data.get("options") or {}
+        name, source = str(data.get("name", path.stem)), str(path)
+        threshold = data.get("outlier_threshold", 3.5)
+        if not isinstance(threshold, (int, float)) or threshold <= 0:
+            raise FleetError(f"{where('outlier_threshold')}: outlier_threshold must be a positive number")
+    else:
+        where = lambda key: str(spec)  # noqa: E731
+        cmd, scn, columns, options, name, source, threshold = command or "compare", scenario, {}, {}, "", str(spec), 3.5
+        units = discover_units(str(spec), Path("."), str(spec))
+    if cmd not in COMMANDS:
+        raise FleetError(f"{where('command')}: command must be compare or calibrate, got {cmd!r}")
+    if not isinstance(columns, dict):
+        raise FleetError(f"{where('columns')}: columns is a mapping of column-map keys (time, temperature, output, ...)")
+    _check_columns(columns, where("columns"))
+    if not isinstance(options, dict):
+        raise FleetError(f"{where('options')}: options is a mapping")
+    for key, value in options.items():
+        if key not in OPTIONS[cmd]:
+            raise FleetError(f"{where('options')}: unknown {cmd} option {key!r}"
+                             f"{did_you_mean(key, OPTIONS[cmd], label='valid options')}")
+        if isinstance(value, bool) and OPTIONS[cmd][key] is not bool or not isinstance(value, OPTIONS[cmd][key]):
+            raise FleetError(f"{where('options')}: options.{key}: wrong type {type(value).__name__}")
+    if isinstance(options.get("applied_g"), str) and options["applied_g"] != "unknown":
+        raise FleetError(f"{where('options')}: options.applied_g is a number in g or 'unknown', got {options['applied_g']!r}")
+    if cmd == "compare":
+        if scn is None:
+            raise FleetError(f"{where('scenario')}: compare needs the twin's scenario (key 'scenario' or --scenario)")
+        if not Path(scn).is_file():
+            raise FleetError(f"{where('scenario')}: scenario file {scn} not found")
+        scn = str(Path(scn).resolve())
+    return FleetSpec(units, cmd, scn, columns, options, name, source, float(threshold))
+
+
+def _check_columns(columns: dict, where: str) -> None:
+    from twin.measurement import ColumnMap
+
+    known = set(ColumnMap.__dataclass_fields__)
+    for key in columns:
+        if key not in known:
+            raise FleetError(f"{where}: unknown column-map key {key!r}{did_you_mean(key, known, label='valid keys')}")
