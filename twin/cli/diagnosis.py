@@ -37,13 +37,18 @@ def compare(
     sample_rate_hz: Annotated[Optional[float], typer.Option(min=0, help="sample rate for logs without a time column [Hz]")] = None,
     skip_bad_rows: Annotated[bool, typer.Option("--skip-bad-rows", help="skip corrupted rows and report how many")] = False,
     average_s: Annotated[float, typer.Option(min=0.1, help="screening block average [s]")] = 10.0,
+    discover: Annotated[bool, typer.Option("--discover", help="when the library leaves structure, search a dictionary of terms for the missing one and write it as a plugin")] = False,
+    discover_plugin: Annotated[Optional[Path], typer.Option("--discover-plugin", help="with --discover: write the discovered effect here (default: REPORT/discovered_effect.py)")] = None,
+    plugin: Annotated[Optional[list[str]], typer.Option("--plugin", help="effect module (.py path or module name) to load and add to the twin; runs its code")] = None,
     json_out: JsonOpt = None,
 ) -> None:
     """Compare the twin with a measurement: calibrate, show where it fails, name the missing effect."""
     from twin.reporting.compare_report import run_compare
 
-    inputs = [scenario, *measurements] + ([columns] if columns else [])
-    with guard(inputs=inputs, outputs=[None if json_out == "-" else json_out]):
+    inputs = [scenario, *measurements] + ([columns] if columns else []) + [Path(p) for p in plugin or [] if p.endswith(".py")]
+    with guard(inputs=inputs, outputs=[None if json_out == "-" else json_out, discover_plugin]):
+        if discover_plugin is not None and not discover:
+            raise TwinError("--discover-plugin: needs --discover")
         cmap = column_map(columns, time=time_col, temperature=temperature_col, output=output_col, time_unit=time_unit,
                           temperature_unit=temperature_unit, output_unit=output_unit, output_scale=output_scale,
                           skip_lines=skip_lines, delimiter=delimiter)
@@ -57,7 +62,8 @@ def compare(
                     setattr(cmap, a, col)
         applied = _applied(applied_g, bool(axes))
         result = run_compare(scenario, measurements, cmap, with_effect or [], applied, skip_bad_rows, average_s,
-                             report, json_out, axes=parse_axes(axes) if axes else None, imu=imu)
+                             report, json_out, axes=parse_axes(axes) if axes else None, imu=imu,
+                             discover=discover, discover_plugin=discover_plugin, plugins=plugin)
     if json_out != "-" and "imus" in result:
         typer.echo(result["finding"])
         for imu_result in result["imus"]:

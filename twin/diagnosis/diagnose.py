@@ -46,8 +46,13 @@ from twin.diagnosis.screen import (
     screen,
 )
 from twin.diagnosis.segments import residual_segments
+from twin.diagnosis.structure import residual_structure
 from twin.diagnosis.selection import assess_confidence, forward_selection
 from twin.effects import Composition, get_effect
+
+#: above this multiple of the white-noise floor, a finding may say "no missing effect" only when the
+#: residual has no structure in temperature, rate or time (the issue's honesty rule)
+HONESTY_RATIO = 1.1
 
 
 @dataclass
@@ -69,6 +74,10 @@ class Diagnosis:
     segments: dict
     withheld: list[dict] = field(default_factory=list)
     rivals: list[str] = field(default_factory=list)  # other families aliased with the named one, ≥ ½ its ΔBIC
+    structure: list = field(default_factory=list)  # Structure: where the residual is not noise (after named effects)
+    rms_after_selected_g: float = float("nan")  # residual with the named effects added
+    discovery: object | None = None  # a Discovery, when ``--discover`` ran
+    plugin_path: str | None = None  # where the discovered term was written as an effect
 
     @property
     def rms_residual_g(self) -> float:
@@ -104,8 +113,22 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
     d = Diagnosis(cal, problem, first, selection.selected, found.aliases, found.untestable, found.model_aliased,
                   floor, noise_floor_model_g, conf.label, "", _heldout_rms(problem, cal), conf.slow_share,
                   conf.run_consistent, residual_segments(problem, cal.residual), selection.withheld, conf.rivals)
+    d.rms_after_selected_g = _rms_with(problem, cal, selection.selected)
+    if d.rms_after_selected_g > HONESTY_RATIO * floor:  # only then can "no missing effect" be wrong
+        d.structure = residual_structure(problem, cal, selection.selected, floor)
     d.finding = finding_text(d)
     return d
+
+
+def _rms_with(problem: Problem, cal: Calibration, selected: list[CandidateResult]) -> float:
+    """Residual RMS at the sample rate with the named effects added (linear refit on averages)."""
+    if not selected:
+        return float(np.sqrt(np.mean(cal.residual ** 2)))
+    A_full = np.column_stack([cal.X_full] + [c.columns_full for c in selected])
+    y = problem.y - cal.fixed_full
+    beta = np.linalg.lstsq(problem.avg(A_full), problem.avg(y), rcond=None)[0]
+    r = y - A_full @ beta
+    return float(np.sqrt(np.mean(r * r)))
 
 
 def _candidates_to_screen(problem: Problem, cal: Calibration) -> list[str]:

@@ -106,6 +106,7 @@ def finding_text(d: Diagnosis) -> str:
         parts.append(f"{sig}: {phys}. Adding {top.effect} lowers the RMS from {_fmt_mg(rms)} to "
                      f"{_fmt_mg(top.rms_residual_g)}; noise floor {_fmt_mg(d.noise_floor_g)} "
                      f"(ΔBIC {top.delta_bic:.0f}, held-out gain {100 * top.heldout_gain:.0f} %).")
+        parts.append(_attribution_text(top.family, top.effect))
         if len(d.selected) > 1:
             parts.append("Also missing: " + ", ".join(c.effect for c in d.selected[1:]) + ".")
         if d.confidence == "uncertain":
@@ -122,12 +123,17 @@ def finding_text(d: Diagnosis) -> str:
                      f"explains more of the residual (ΔBIC {w['delta_bic'][1]:.0f} vs {w['delta_bic'][0]:.0f}) without "
                      f"passing them: the data do not say which effect is missing, so none is named. To separate "
                      f"them: {REMEDY.get(w['outranked_by_family'], 'a different test plan')}.")
+    elif d.structure or (d.discovery is not None and d.discovery.proposed):
+        parts.append(f"No library effect explains the residual, but it is not white noise: RMS {_fmt_mg(rms)}, "
+                     f"{rms / d.noise_floor_g:.2f}× the white-noise floor of {_fmt_mg(d.noise_floor_g)}.")
     else:
         parts.append(f"No missing effect found: residual RMS {_fmt_mg(rms)} against a noise floor of "
                      f"{_fmt_mg(d.noise_floor_g)}.")
-        if rms > 1.5 * d.noise_floor_g:
-            parts.append(f"The residual is {rms / d.noise_floor_g:.1f}× the white-noise floor: slow correlated noise "
-                         "or structure outside the library remains (see the Allan deviation and dwell plots).")
+        if rms > 1.1 * d.noise_floor_g:
+            parts.append(f"The residual is {rms / d.noise_floor_g:.2f}× the white-noise floor, without structure in "
+                         "temperature, rate or time beyond the noise model: slow correlated noise (see the Allan "
+                         "deviation and dwell plots).")
+    parts += _structure_and_discovery(d)
     remedies: dict[str, list[str]] = {}
     top_effects = {c.effect for c in d.selected}
     for a in d.aliases:
@@ -151,3 +157,67 @@ def finding_text(d: Diagnosis) -> str:
     for remedy, what in remedies.items():
         parts.append(f"Not separable or not testable with this data: {', '.join(dict.fromkeys(what))}. To fix: {remedy}.")
     return " ".join(parts)
+
+
+GROUPING = {"temperature": "in temperature", "rate": "between heating, cooling and dwells",
+            "temperature_direction": "between heating and cooling at the same temperature", "time": "in time"}
+
+
+def _attribution_text(family: str, effect: str | None) -> str:
+    """Whether the named effect is a mechanism or only a signature, and its look-alikes."""
+    from twin.diagnosis.lookalikes import attribution, lookalikes_sentence
+
+    if attribution(family, effect) == "mechanism":
+        return "Attribution: to a mechanism (no mechanism outside the library shares this signature)."
+    return "Attribution: to a signature, not a mechanism. " + lookalikes_sentence(family, effect)
+
+
+def structure_text(structure: list) -> str:
+    """Where the residual departs from the noise model and by how much ('' when nowhere)."""
+    if not structure:
+        return ""
+    items = "; ".join(f"{GROUPING.get(s.grouping, s.grouping)} ({_fmt_mg(s.rms_g)} RMS, largest at {s.where}: "
+                      f"{s.departure_g * 1e3:+.3g} mg; ΔBIC {s.delta_bic:.0f})" for s in structure)
+    return f"The residual has structure white noise would not make: {items}."
+
+
+def _structure_and_discovery(d: Diagnosis) -> list[str]:
+    """The honesty rule and the discovery: what remains, where, and the term found for it."""
+    out = []
+    disc = d.discovery
+    if d.structure and (disc is None or not disc.proposed):
+        out.append(structure_text(d.structure))
+    if disc is None:
+        if d.structure:
+            out.append("The library leaves this structure: `twin compare ... --discover` searches a dictionary of "
+                       "terms built from the temperature history and time for the missing one.")
+        return out
+    if disc.proposed:
+        beat = ", ".join(f"{b['feature']} (ΔBIC {b['delta_bic']:.0f})" for b in disc.beaten[:3])
+        out.append(f"Discovery ({disc.features_tried} terms tried, searched on blocks it does not score): "
+                   f"{disc.equation()}; held-out gain {100 * disc.heldout_gain:.0f} %, ΔBIC {disc.delta_bic:.0f}; "
+                   f"RMS {_fmt_mg(disc.rms_before_g)} → {_fmt_mg(disc.rms_predicted_g)}"
+                   + (f"; it beat {beat}" if beat else "") + ".")
+        from twin.diagnosis.lookalikes import FEATURE_FAMILY
+
+        fam = FEATURE_FAMILY.get(disc.terms[0].spec.kind, "discovered")
+        out.append("Attribution: to a signature only (a term outside the library). " + lookalike_hint(fam))
+        if d.plugin_path:
+            also = "".join(f" --with-effect {c.effect}" for c in d.selected)
+            out.append(f"Written as an effect: {d.plugin_path} (add it with --plugin {d.plugin_path}{also}).")
+    elif disc.preferred_library:
+        out.append(f"Discovery prefers the library: {disc.preferred_library} explains the residual as well as any "
+                   f"term of the dictionary; add it with --with-effect {disc.preferred_library}.")
+    else:
+        out.append(f"Discovery proposes nothing: {disc.reason}.")
+    return out
+
+
+def lookalike_hint(family: str) -> str:
+    """Mechanisms that could make a discovered term's signature."""
+    from twin.diagnosis.lookalikes import lookalikes
+
+    mechs = lookalikes(family)
+    if not mechs:
+        return ""
+    return "Mechanisms with a like signature: " + "; ".join(f"{m.name} (to tell: {m.test})" for m in mechs) + "."

@@ -124,6 +124,7 @@ noise floor {mg(result['noise_floor_g'])} mg from the data{'' if result['noise_f
 held-out RMS ({result['noise_model']['average_s']:g}-s means) {mg(result['heldout_rms_g'])} mg.
 Missing effect detected: <b>{result['missing_effect_detected']}</b> ({result['confidence']}). Model: {', '.join(result['effects'])}.
 Noise model AR({result['noise_model']['ar_order']}).</p>
+{_finding_sections(result)}
 <h2>Test-plan audit: what this data cannot tell apart</h2>{_table(audit, ['effects', 'aliased with / why', 'what would separate them'])}
 <h2>Candidates (best first)</h2>{_table(cands, ['effect', 'family', 'significant', 'ΔBIC', 'p (Bonferroni)', 'held-out gain', 'explained', 'RMS after [mg]', 'grid'])}
 <h2>Parameters (95 % intervals)</h2>{_table(params, ['effect', 'parameter', 'value', 'unit', '95 % CI', 'flag'])}
@@ -133,6 +134,34 @@ Noise model AR({result['noise_model']['ar_order']}).</p>
 {imgs}
 </body></html>"""
     return atomic_write_text(directory / "report.html", page)
+
+
+def _finding_sections(result: dict) -> str:
+    """Look-alike mechanisms, residual structure and the discovery, when the result has them."""
+    out = []
+    if result.get("lookalikes"):
+        rows = [[m["name"], "yes" if m["in_library"] else "no", m["effect"] or "-", m["reason"], m["test"]]
+                for m in result["lookalikes"]]
+        out.append(f"<h2>Look-alike mechanisms (attribution to a {html.escape(result.get('attribution', '-'))})</h2>"
+                   + _table(rows, ["mechanism", "in library", "effect", "why it makes this signature", "test that separates"]))
+    if result.get("structure"):
+        rows = [[s["grouping"], f"{s['rms_g'] * 1e3:.3f}", s["where"], f"{s['departure_g'] * 1e3:+.3f}",
+                 f"{s['delta_bic']:.1f}", f"{s['p_adjusted']:.2g}"] for s in result["structure"]]
+        out.append("<h2>Structure the model leaves (not white noise)</h2>"
+                   + _table(rows, ["grouping", "RMS [mg]", "largest at", "departure [mg]", "ΔBIC", "p (Bonferroni)"]))
+    disc = result.get("discovery")
+    if disc:
+        rows = [[t["feature"]["label"], f"{t['coefficient_mg']:.4g} ± {t['ci95_half_width_mg']:.2g}",
+                 t["feature"]["unit"], f"{t['delta_bic']:.1f}", f"{t['p_adjusted']:.2g}"] for t in disc["terms"]]
+        head = (f"<p><b>{html.escape(disc['equation'] or 'nothing proposed')}</b> — {html.escape(disc['reason'])}; "
+                f"{disc['features_tried']} terms tried; held-out gain {100 * disc['heldout_gain']:.1f} %; "
+                f"ΔBIC {disc['delta_bic']:.1f}; RMS {disc['rms_before_g'] * 1e3:.3f} → "
+                f"{disc['rms_predicted_g'] * 1e3:.3f} mg; plugin: {html.escape(str(disc.get('plugin') or '-'))}</p>")
+        beaten = _table([[b["feature"], f"{b['delta_bic']:.1f}"] for b in disc["beaten"]], ["feature it beat", "ΔBIC"])
+        out.append("<h2>Discovery: a term outside the library</h2>" + head
+                   + (_table(rows, ["term", "coefficient [mg per unit]", "unit", "ΔBIC", "p (× terms tried)"]) if rows else "")
+                   + beaten)
+    return "\n".join(out)
 
 
 def _ledger(ledger_dir: Path | None, report: Path | None, d, result: dict, title: str) -> None:
@@ -146,22 +175,51 @@ def _ledger(ledger_dir: Path | None, report: Path | None, d, result: dict, title
         write_report(report, d, result, ledger, title=title)
 
 
+def _finish(d, result: dict, discover: bool, plugin_path: Path | None, sources: list[str]) -> None:
+    """The finding's extra fields (look-alikes, structure) and, with ``discover``, the discovery."""
+    from twin.diagnosis.discover_report import discover_into, extras_json
+
+    if discover:
+        discover_into(d, result, plugin_path, sources)
+    else:
+        result.update(extras_json(d))
+
+
+def _plugin_target(discover_plugin: Path | None, report: Path | None, suffix: str = "") -> Path | None:
+    from twin.diagnosis.discover_report import PLUGIN_NAME
+
+    if discover_plugin is not None:
+        return discover_plugin if not suffix else discover_plugin.with_name(f"{discover_plugin.stem}_{suffix}.py")
+    return None if report is None else (report / suffix / PLUGIN_NAME if suffix else report / PLUGIN_NAME)
+
+
 def run_compare(scenario: Path, measurements: list[Path], cmap, with_effects: list[str], applied,
                 skip_bad_rows: bool, average_s: float, report: Path | None, json_out: str | None,
-                axes: list[str] | None = None, imu: str | None = None) -> dict:
+                axes: list[str] | None = None, imu: str | None = None, discover: bool = False,
+                discover_plugin: Path | None = None, plugins: list[str] | None = None) -> dict:
     """``twin compare`` on files: one axis (the classic result), or ``axes`` of every IMU in ``imu``
-    (``"all"`` or an instance number), each with its report in ``REPORT/imu{n}_{axis}``."""
+    (``"all"`` or an instance number), each with its report in ``REPORT/imu{n}_{axis}``.
+
+    ``plugins``: effect modules to load; the effects they register are added to the twin.
+    ``discover``: search for a term outside the library; a proposed one is written as a plugin to
+    ``discover_plugin`` (or ``REPORT/discovered_effect.py``)."""
     from twin.diagnosis.axes import compare_imu
     from twin.diagnosis.compare import compare_measurement
+    from twin.effects import load_plugin
     from twin.measurement import imu_logs_by_instance, load_measurements
     from twin.model.scenario import load_scenario
 
     loaded = load_scenario(scenario)
+    with_effects = list(with_effects)
+    for spec in plugins or []:
+        with_effects += [n for n in load_plugin(spec) if n not in with_effects]
     ledger_dir = report if report is not None else (Path(json_out).parent if json_out not in (None, "-") else None)
     names = ", ".join(p.name for p in measurements)
+    sources = [str(p) for p in measurements]
     if not axes:
         m = load_measurements(measurements, cmap, skip_bad_rows=skip_bad_rows, applied_g=applied)
         d, result = compare_measurement(loaded, m, with_effects, average_s)
+        _finish(d, result, discover, _plugin_target(discover_plugin, report), sources)
         _ledger(ledger_dir, report, d, result, f"twin compare: {names}")
         return result
     per_instance = imu_logs_by_instance(measurements, cmap, imu, skip_bad_rows=skip_bad_rows)
@@ -170,6 +228,8 @@ def run_compare(scenario: Path, measurements: list[Path], cmap, with_effects: li
         joint = compare_imu(loaded, logs, axes, with_effects, average_s, applied)
         for axis, d in joint.diagnoses.items():
             sub = lambda base: None if base is None else base / f"imu{instance}_{axis}"  # noqa: E731
+            _finish(d, joint.results[axis], discover, _plugin_target(discover_plugin, report, f"imu{instance}_{axis}"),
+                    sources)
             _ledger(sub(ledger_dir), sub(report), d, joint.results[axis], f"twin compare: {names}, IMU {instance} {axis}")
         out.append(joint.json())
     return {"imus": out, "finding": " ".join(f"IMU {j['instance']}: {j['finding']}" for j in out)}

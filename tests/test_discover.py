@@ -1,0 +1,124 @@
+"""Discovery of a term outside the library, look-alike mechanisms, and the honesty rule.
+
+A few seeds of each case; ``benchmarks/bench_discovery.py`` runs ≥ 50 per case for the rates.
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import run_cli
+from twin.diagnosis.compare import compare_measurement
+from twin.diagnosis.discover import base_design
+from twin.diagnosis.discover_report import discover_into, effect_name
+from twin.diagnosis.hidden import draw_case
+from twin.diagnosis.linalg import orthonormal_basis
+from twin.diagnosis.lookalikes import CATALOGUE, attribution, lookalikes, lookalikes_json
+from twin.diagnosis.outside import draw_outside
+from twin.effects import REGISTRY, load_plugin
+
+
+def _projected_corr(d, a, b) -> float:
+    """|corr| of two full-rate terms on 10-s means, with what the base model absorbs projected out."""
+    X_full, _ = base_design(d.problem, d.calibration, d.selected)
+    Q = orthonormal_basis(d.problem.avg(X_full))
+    x, y = d.problem.avg(a), d.problem.avg(b)
+    x, y = x - Q @ (Q.T @ x), y - Q @ (Q.T @ y)
+    return float(abs(x @ y) / (np.linalg.norm(x) * np.linalg.norm(y)))
+
+
+@pytest.fixture(scope="module")
+def discovered(tmp_path_factory):
+    """Each out-of-library case once: before and after discovery, with its plugin written."""
+    out = {}
+    for kind in ("temp_rate", "threshold_step"):
+        oc = draw_outside(kind, seed=31)
+        d, r = compare_measurement(oc.case.twin, oc.case.measurement, [])
+        before = d.finding
+        plugin = tmp_path_factory.mktemp(kind) / "discovered_effect.py"
+        discover_into(d, r, plugin)
+        out[kind] = (oc, d, r, before, plugin)
+    return out
+
+
+@pytest.mark.parametrize("kind", ["temp_rate", "threshold_step"])
+def test_discovery_finds_the_generating_term_and_reaches_the_noise(discovered, kind):
+    oc, d, r, _, _ = discovered[kind]
+    disc = d.discovery
+    assert disc.proposed, disc.reason
+    # the issue's target: ≤ 1.05 × the noise-only RMS after adding the discovered term
+    assert disc.rms_predicted_g <= 1.05 * oc.case.noise_only_rms_g
+    kinds = [t.spec.kind for t in disc.terms]
+    # the generating feature, or an equivalent one (correlation ≥ 0.95 on the data, the issue's bar)
+    assert oc.generating_kind in kinds or _projected_corr(d, disc.contribution_g, oc.case.hidden_g) >= 0.95
+    assert disc.heldout_gain > 0.05 and disc.features_tried > 50
+    assert r["discovery"]["equation"].startswith("bias = ") and "Discovery" in r["finding"]
+
+
+@pytest.mark.parametrize("kind", ["temp_rate", "threshold_step"])
+def test_honesty_never_no_missing_effect_above_the_floor_with_structure(discovered, kind):
+    _, d, _, before, _ = discovered[kind]
+    assert d.rms_residual_g > 1.1 * d.noise_floor_g  # the case is above the floor: the rule applies
+    for text in (before, d.finding):
+        assert "no missing effect" not in text.lower(), text
+
+
+def test_plugin_round_trip_reaches_the_predicted_rms(discovered):
+    oc, d, _, _, plugin = discovered["temp_rate"]
+    assert plugin.is_file()
+    names = load_plugin(str(plugin))
+    try:
+        assert names == [effect_name(d.discovery)] and REGISTRY[names[0]].family == "discovered"
+        _, r2 = compare_measurement(oc.case.twin, oc.case.measurement, names + [c.effect for c in d.selected])
+    finally:  # registered, it would be screened as a candidate by every later test in this process
+        REGISTRY.pop(names[0], None)
+    # the issue's bar: within 2 % of what the discovery predicted
+    assert abs(r2["rms_residual_g"] / d.discovery.rms_predicted_g - 1) <= 0.02
+    assert names[0] in r2["effects"] and not r2["missing_effect_detected"]
+
+
+def test_null_with_coloured_noise_proposes_nothing_and_says_no_missing_effect():
+    oc = draw_outside("null_coloured", seed=20001)  # a seed the library itself leaves alone (see the bench)
+    d, r = compare_measurement(oc.case.twin, oc.case.measurement, [])
+    discover_into(d, r, None)
+    assert not d.discovery.proposed
+    assert "no missing effect" in d.finding.lower()
+
+
+def test_in_library_effect_is_preferred_and_nothing_is_discovered():
+    case = draw_case("warmup", seed=5)
+    d, r = compare_measurement(case.twin, case.measurement, [])
+    discover_into(d, r, None)
+    assert d.selected and d.selected[0].family == "warmup"
+    assert not d.discovery.proposed
+    assert r["lookalikes"][0]["effect"] == "warmup" and r["attribution"] in ("signature", "mechanism")
+
+
+def test_catalogue_covers_every_library_family_with_reason_and_test():
+    families = {c.family for c in REGISTRY.values()} - {"probe", "null", "discovered"}
+    assert families <= set(CATALOGUE)
+    for fam in families:
+        mechs = lookalikes(fam)
+        assert len(mechs) >= 2
+        for m in mechs:
+            assert m.reason and m.test and (m.effect is None or m.effect in REGISTRY)
+    # the issue's examples: relaxation = creep or moisture; rate-dependent = lag or gradient
+    relax = {m.name for m in lookalikes("hysteresis")}
+    assert any("moisture" in n for n in relax) and any("creep" in n for n in relax)
+    assert {"thermal_lag", "thermal_gradient"} <= {m.effect for m in lookalikes("thermal_lag")}
+    assert attribution("thermal_lag", "thermal_lag") == "signature"
+    assert lookalikes_json("warmup", "warmup")[0]["in_library"] is True
+
+
+def test_cli_discover_plugin_needs_discover(tmp_path):
+    case = draw_case("none", seed=1)
+    csv = case.write_csv(tmp_path)
+    scn = tmp_path / "twin.yaml"
+    scn.write_text(case.twin.text)
+    r = run_cli("compare", str(scn), str(csv), "--discover-plugin", str(tmp_path / "p.py"), "--json", "-")
+    assert r.returncode == 2 and "--discover" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    r = run_cli("compare", str(scn), str(csv), "--discover", "--json", "-")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["discovery"]["proposed"] is False and "no missing effect" in out["finding"].lower()

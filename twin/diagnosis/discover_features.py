@@ -1,0 +1,209 @@
+"""The dictionary of candidate terms for discovery: features of the measurement's own columns.
+
+Each feature is a :class:`FeatureSpec` (a kind and its parameters) evaluated from time,
+temperature, run and power-on time only, so a plugin written from it computes the same column
+on any log. Features are computed on block means (``average_s``) inside each run and
+interpolated back to the sample times: the temperature is already smoothed over 10 s by the
+problem, and a median filter or play operator over 515k samples would cost seconds.
+
+Forms (units in each spec's ``unit``): powers of ΔT = T − 25 °C; the rate R = dT/dt [°C/min],
+R², |R|, ΔT·R; first-order lag errors T_τ − T (Ljung, *System Identification*, §2.1);
+play-operator offsets p_w(T) − T (Visintin, *Differential Models of Hysteresis*, 1994, ch. III);
+exp(−t_on/τ) after each power-on; exp(−s/τ)·ΔT_last after each temperature change (a Maxwell
+relaxation, Findley et al., *Creep and Relaxation of Nonlinear Viscoelastic Materials*, ch. 5);
+smooth steps ½(1 + tanh((T − Tc)/w)); the short oscillation T − median_w(T) (a median filter
+keeps ramps and their corners, so only the controller's limit cycle remains); slow trends t, t².
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+from scipy.ndimage import median_filter, uniform_filter1d
+from scipy.signal import lfilter
+
+from twin.arrays import run_slices
+from twin.diagnosis.noise import BlockAverager
+
+T_REF_C = 25.0
+LAG_TAUS_S = (30.0, 60.0, 120.0, 300.0, 600.0, 1200.0, 3600.0)
+PLAY_WIDTHS_C = (0.5, 1.0, 2.0, 4.0, 8.0)
+POWER_ON_TAUS_S = (60.0, 180.0, 600.0, 1800.0, 5400.0)
+CHANGE_TAUS_S = (300.0, 1200.0, 3600.0)
+STEP_WIDTHS_C = (0.5, 2.0)
+STEP_SPACING_C = 5.0
+OSC_WINDOWS_S = (300.0, 600.0, 1200.0)
+RATE_THRESHOLD_C_PER_MIN = 0.1  # |dT/dt| below this is a dwell (end of a temperature change)
+
+
+@dataclass(frozen=True)
+class FeatureSpec:
+    """One candidate term: ``kind`` with its parameters; ``label`` is the printed form."""
+
+    kind: str
+    params: tuple[tuple[str, float], ...] = ()
+    label: str = ""
+    unit: str = ""  # unit of the feature itself (the coefficient is mg per this unit)
+
+    def p(self, name: str) -> float:
+        return dict(self.params)[name]
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["params"] = dict(self.params)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> FeatureSpec:
+        return cls(d["kind"], tuple(sorted(d.get("params", {}).items())), d.get("label", ""), d.get("unit", ""))
+
+
+@dataclass
+class BlockInputs:
+    """Block means of the inputs inside each run (the grid every feature is computed on)."""
+
+    time_s: np.ndarray
+    temp_c: np.ndarray
+    run: np.ndarray
+    t_on_s: np.ndarray
+    dt_s: float  # block length [s]
+    rate_c_per_min: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        rate = np.zeros_like(self.temp_c)
+        for s in run_slices(self.run):
+            t = uniform_filter1d(self.temp_c[s], 6, mode="nearest")  # one-minute smoothing of the derivative
+            if t.size > 1:
+                rate[s] = np.gradient(t, self.time_s[s]) * 60.0
+        self.rate_c_per_min = rate
+
+
+def block_inputs(time_s, temp_c, run_index, t_on_s, average_s: float) -> tuple[BlockInputs, BlockAverager]:
+    """Block means of the inputs (blocks of ``average_s`` inside each run) and the averager."""
+    time_s = np.asarray(time_s, float)
+    dt = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+    avg = BlockAverager.build(np.asarray(run_index), int(round(average_s / max(dt, 1e-12))))
+    t_on = np.asarray(t_on_s, float) if t_on_s is not None else time_s - time_s[0]
+    b = BlockInputs(avg(time_s), avg(np.asarray(temp_c, float)), avg.run_of_block, avg(t_on),
+                    float(max(average_s, dt)))
+    return b, avg
+
+
+def _per_run(b: BlockInputs, fn) -> np.ndarray:
+    out = np.empty_like(b.temp_c)
+    for s in run_slices(b.run):
+        out[s] = fn(s)
+    return out
+
+
+def _lag(b: BlockInputs, tau_s: float) -> np.ndarray:
+    a = np.exp(-b.dt_s / tau_s)  # exact first-order discretisation, started at equilibrium per run
+
+    def f(s):
+        x = b.temp_c[s]
+        return lfilter([1 - a], [1, -a], x - x[0]) + x[0] - x
+    return _per_run(b, f)
+
+
+def _play(b: BlockInputs, width_c: float) -> np.ndarray:
+    def f(s):
+        x = b.temp_c[s]
+        y = np.empty_like(x)
+        cur = x[0]
+        for i, v in enumerate(x):  # blocks only (≤ 10⁵): the plain loop is fast enough here
+            cur = min(max(cur, v - width_c), v + width_c)
+            y[i] = cur
+        return y - x
+    return _per_run(b, f)
+
+
+def _since_change(b: BlockInputs, tau_s: float) -> np.ndarray:
+    def f(s):
+        t, x, r = b.time_s[s], b.temp_c[s], np.abs(b.rate_c_per_min[s])
+        out = np.zeros_like(x)
+        moving = r > RATE_THRESHOLD_C_PER_MIN
+        start_t, last_change, in_ramp, ramp_start_x = None, 0.0, False, x[0]
+        for i in range(x.size):
+            if moving[i] and not in_ramp:
+                in_ramp, ramp_start_x = True, x[i]
+            elif not moving[i] and in_ramp:
+                in_ramp, start_t, last_change = False, t[i], x[i] - ramp_start_x
+            if start_t is not None and not in_ramp:
+                out[i] = last_change * np.exp(-(t[i] - start_t) / tau_s)
+        return out
+    return _per_run(b, f)
+
+
+def _oscillation(b: BlockInputs, window_s: float) -> np.ndarray:
+    w = max(3, int(round(window_s / b.dt_s)) | 1)
+    return _per_run(b, lambda s: b.temp_c[s] - median_filter(b.temp_c[s], size=w, mode="nearest"))
+
+
+def block_feature(spec: FeatureSpec, b: BlockInputs) -> np.ndarray:
+    """The feature on the block grid."""
+    dT, R = b.temp_c - T_REF_C, b.rate_c_per_min
+    k = spec.kind
+    if k == "power":
+        return dT ** int(spec.p("n"))
+    if k == "rate":
+        return R.copy()
+    if k == "rate2":
+        return R * R
+    if k == "abs_rate":
+        return np.abs(R)
+    if k == "temp_rate":
+        return dT * R
+    if k == "lag":
+        return _lag(b, spec.p("tau_s"))
+    if k == "play":
+        return _play(b, spec.p("width_c"))
+    if k == "power_on":
+        return np.exp(-b.t_on_s / spec.p("tau_s"))
+    if k == "since_change":
+        return _since_change(b, spec.p("tau_s"))
+    if k == "step":
+        return 0.5 * (1 + np.tanh((b.temp_c - spec.p("at_c")) / spec.p("width_c")))
+    if k == "oscillation":
+        return _oscillation(b, spec.p("window_s"))
+    if k == "trend":
+        return ((b.time_s - b.time_s[0]) / 3600.0) ** int(spec.p("n"))
+    raise ValueError(f"unknown feature kind {k!r}")
+
+
+def full_rate(values_blocks: np.ndarray, b: BlockInputs, time_s: np.ndarray, run_index: np.ndarray) -> np.ndarray:
+    """A block-grid feature interpolated back to the sample times, run by run."""
+    out = np.empty(np.shape(time_s), float)
+    runs_full = run_slices(np.asarray(run_index))
+    runs_block = run_slices(b.run)
+    for sf, sb in zip(runs_full, runs_block):
+        out[sf] = np.interp(time_s[sf], b.time_s[sb], values_blocks[sb])
+    return out
+
+
+def feature_full(spec: FeatureSpec, time_s, temp_c, run_index, t_on_s, average_s: float) -> np.ndarray:
+    """The feature at the sample times (what a discovered plugin's basis computes)."""
+    b, _ = block_inputs(time_s, temp_c, run_index, t_on_s, average_s)
+    return full_rate(block_feature(spec, b), b, np.asarray(time_s, float), run_index)
+
+
+def _spec(kind: str, label: str, unit: str, **params: float) -> FeatureSpec:
+    return FeatureSpec(kind, tuple(sorted(params.items())), label, unit)
+
+
+def dictionary(b: BlockInputs) -> list[FeatureSpec]:
+    """Every candidate term for this temperature history (steps over its 5–95 % range)."""
+    specs = [_spec("power", f"ΔT^{n}", f"°C^{n}" if n > 1 else "°C", n=n) for n in (1, 2, 3)]
+    specs += [_spec("rate", "dT/dt", "°C/min"), _spec("rate2", "(dT/dt)²", "(°C/min)²"),
+              _spec("abs_rate", "|dT/dt|", "°C/min"), _spec("temp_rate", "ΔT·dT/dt", "°C²/min")]
+    specs += [_spec("lag", f"(T lagged τ={t:g} s − T)", "°C", tau_s=t) for t in LAG_TAUS_S]
+    specs += [_spec("play", f"(play_{w:g}°C(T) − T)", "°C", width_c=w) for w in PLAY_WIDTHS_C]
+    specs += [_spec("power_on", f"exp(−t_on/{t:g} s)", "1", tau_s=t) for t in POWER_ON_TAUS_S]
+    specs += [_spec("since_change", f"ΔT_last·exp(−t_change/{t:g} s)", "°C", tau_s=t) for t in CHANGE_TAUS_S]
+    lo, hi = np.percentile(b.temp_c, [5, 95]) if b.temp_c.size else (0.0, 0.0)
+    for at in np.arange(np.ceil(lo / STEP_SPACING_C) * STEP_SPACING_C, hi, STEP_SPACING_C / 2):
+        specs += [_spec("step", f"step(T > {at:g} °C, w {w:g} °C)", "1", at_c=float(at), width_c=w)
+                  for w in STEP_WIDTHS_C]
+    specs += [_spec("oscillation", f"(T − median_{w:g}s(T))", "°C", window_s=w) for w in OSC_WINDOWS_S]
+    specs += [_spec("trend", "t" if n == 1 else f"t^{n}", "h" if n == 1 else f"h^{n}", n=n) for n in (1, 2)]
+    return specs
