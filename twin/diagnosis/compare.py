@@ -6,8 +6,9 @@ import numpy as np
 
 from sim.sensor import logger_white_sigma_g
 from twin.diagnosis.contract import result_json
+from twin.diagnosis.decimate import decimated_problem, restore_sample_rate
 from twin.diagnosis.diagnose import diagnose
-from twin.diagnosis.problem import DiagnosisConfig, Problem
+from twin.diagnosis.problem import DiagnosisConfig
 from twin.effects import Composition, get_effect
 from twin.errors import ModelError, TwinError
 from twin.measurement import Measurement
@@ -45,9 +46,16 @@ def twin_model(loaded: LoadedScenario, with_effects: list[str]) -> Composition:
 
 def compare_measurement(loaded: LoadedScenario, m: Measurement, with_effects: list[str], average_s: float = 10.0):
     cfg = DiagnosisConfig(average_s=average_s)
-    problem = Problem(m, cfg)
-    d = diagnose(problem, twin_model(loaded, with_effects), sensor_noise_floor_g(loaded, m.sample_rate_hz))
+    rate = m.sample_rate_hz
+    # a fast log is diagnosed on means at 10 Hz; per-sample figures come from the full rate
+    problem, blocks, k = decimated_problem(m, rate, cfg)
+    d = diagnose(problem, twin_model(loaded, with_effects), sensor_noise_floor_g(loaded, rate))
+    if blocks is not None:
+        d = restore_sample_rate(d, m, blocks, k)
     result = result_json(d)
     result["measurement"] = {"files": m.sources, "bad_rows_skipped": m.bad_rows_skipped, "notes": m.notes,
                              "applied_known": m.applied_known}
+    if blocks is not None:
+        result["samples"], result["sample_rate_hz"] = len(m), rate
+        result["measurement"]["diagnosed_on_means_of"] = k
     return d, result

@@ -129,7 +129,12 @@ def white_noise_sigma_from_differences(r: np.ndarray, run_index: np.ndarray) -> 
     beyond 8 robust σ (spikes, steps) are trimmed; a plain MAD would be biased by quantised values.
     """
     d = np.diff(np.asarray(r, float))
-    d = d[np.diff(np.asarray(run_index)) == 0]
+    return white_sigma_of_differences(d[np.diff(np.asarray(run_index)) == 0])
+
+
+def white_sigma_of_differences(d: np.ndarray) -> float:
+    """√(mean(d²)/2) of first differences ``d`` inside runs, beyond 8 robust σ trimmed (see
+    :func:`white_noise_sigma_from_differences`)."""
     if d.size == 0:
         return 0.0
     scale = np.percentile(np.abs(d), 75) / 0.6745 or np.std(d)

@@ -36,7 +36,8 @@ class DiagnosisConfig:
 class Problem:
     """A measurement prepared for modelling."""
 
-    def __init__(self, m: Measurement, config: DiagnosisConfig):
+    def __init__(self, m: Measurement, config: DiagnosisConfig, time_since_power_on_s: np.ndarray | None = None):
+        """``time_since_power_on_s``: given when ``m`` holds block means of a faster log."""
         self.m, self.config = m, config
         rate = m.sample_rate_hz
         self.rate_hz = rate
@@ -50,7 +51,9 @@ class Problem:
                 applied[s] = np.median(m.output_g[s])
         self.applied = applied
         self.inputs = EffectInputs(time_s=m.time_s, die_c=temp, thermometer_c=temp, applied_g=applied,
-                                   run_index=m.run_index, time_since_power_on_s=m.time_since_power_on_s())
+                                   run_index=m.run_index,
+                                   time_since_power_on_s=m.time_since_power_on_s() if time_since_power_on_s is None
+                                   else time_since_power_on_s)
         self.y = m.output_g - applied
         self.avg = BlockAverager.build(m.run_index, int(round(config.average_s * rate)))
         self.run_avg = self.avg.run_of_block

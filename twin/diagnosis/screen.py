@@ -7,6 +7,8 @@ Decision: p_adj < 0.01 AND ΔBIC > 10 AND held-out gain > 5 %.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,6 +20,19 @@ from twin.diagnosis.linalg import heldout_errors, novelty, orthonormal_basis
 from twin.diagnosis.noise import fit_ar
 from twin.diagnosis.problem import DiagnosisConfig, Problem, cv_folds
 from twin.effects import REGISTRY, Composition, Effect, get_effect
+
+_PROGRESS: list[Callable[[int], object]] = []  # callbacks told of each grid point screened
+
+
+@contextmanager
+def screening_progress(callback: Callable[[int], object]) -> Iterator[None]:
+    """Call ``callback(1)`` after every grid point screened inside the block (e.g. a tqdm bar's
+    ``update``: the CLI owns the bar, the library only counts)."""
+    _PROGRESS.append(callback)
+    try:
+        yield
+    finally:
+        _PROGRESS.remove(callback)
 
 
 @dataclass
@@ -116,8 +131,10 @@ def screen_columns(problem: Problem, cal: Calibration, cls: type[Effect], values
     screened = [p.name for p in eff.parameters if p.role == "amplitude" and p.screen]
     basis = eff.basis(cal.inputs)
     names = [a for a in screened if a in basis]
-    cols = [np.broadcast_to(basis[a].output_g(problem.applied), (problem.n,)).astype(float) for a in names]
-    return np.column_stack(cols), names
+    out = np.empty((problem.n, len(names)))  # filled in place: one copy per column, not two
+    for j, a in enumerate(names):
+        out[:, j] = basis[a].output_g(problem.applied)
+    return out, names
 
 
 def _temperature_derivative(problem: Problem, cal: Calibration, h: float = 0.5) -> np.ndarray:
@@ -263,6 +280,8 @@ def screen(problem: Problem, cal: Calibration, candidates: list[str], extra: np.
                                       t.explained_fraction, 0.0, nov, amps, X_full)
             if best is None or res.delta_bic > best.delta_bic:
                 best = res
+            for tick in _PROGRESS:
+                tick(1)
         if best.delta_bic > 0:
             X = problem.avg(best.columns_full)
             # gain where the candidate acts: a power-on transient must not be diluted by hours of dwell

@@ -1,0 +1,231 @@
+"""Day- and week-long logs (issue 15 item 1): ``twin compare`` time and peak memory per row, the
+CSV readers side by side, and the compiled play operator against the old prefix scan.
+
+Logs: a synthetic known-truth generator (not the twin's simulate: a 60 M-row HDF5 simulation would
+itself need tens of GB) with the ``hidden_thermal_lag.yaml`` physics — the chamber repeats that
+scenario's cycle (1 h at −20 °C, 60 °C/h to 50 °C, 1 h, 30 °C/h back, 1 h); the board follows the
+air through τ = 300 s, the thermometer the board through 2 s, the die the board through 190 s.
+Output: 1 g × (1 + 100 ppm/°C·ΔT) + 0.8 mg/°C·ΔT + 1.33 mg white noise, ΔT = T_die − 25 °C. The
+twin (static_bias_tc, scale_factor_tc) lacks the lag: the finding must be ``thermal_lag``, τ ≈ 190 s.
+
+Every process is timed by ``/usr/bin/time -v`` (wall clock, maximum resident set size). The
+in-memory path is the same command with ``TDE_TWIN_FULL_RATE=1`` (no decimation to 10 Hz means).
+
+Usage: python benchmarks/bench_long.py [--skip-week] [--tmp DIR] [--json out/bench_long.json]
+(the week needs ~2.3 GB of CSV in --tmp and minutes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+from scipy.signal import lfilter
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _common import write_json  # noqa: E402
+
+SCENARIO = ROOT / "scenarios/hidden_thermal_lag.yaml"
+CYCLE = [(0.0, -20.0), (3600.0, -20.0), (7800.0, 50.0), (11400.0, 50.0), (19800.0, -20.0), (23400.0, -20.0)]
+DIE_TAU_S, BOARD_TAU_S, PROBE_TAU_S = 190.0, 300.0, 2.0
+
+
+def setpoint_c(t_s: np.ndarray) -> np.ndarray:
+    t, v = np.array(CYCLE).T
+    return np.interp(np.mod(t_s, t[-1]), t, v)
+
+
+class Lag:
+    """First-order lag (exact for a held input), its state carried from chunk to chunk."""
+
+    def __init__(self, dt_s: float, tau_s: float, y0: float):
+        self.a = np.exp(-dt_s / tau_s)
+        self.zi = np.array([self.a * y0])
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        y, self.zi = lfilter([1 - self.a], [1, -self.a], u, zi=self.zi)
+        return y
+
+
+def write_log(path: Path, rows: int, rate_hz: float = 100.0, seed: int = 7) -> int:
+    """The canonical CSV of ``rows`` samples at ``rate_hz``, written one hour at a time."""
+    rng = np.random.default_rng(seed)
+    dt = 1.0 / rate_hz
+    t0 = setpoint_c(np.zeros(1))[0]
+    board, probe, die = Lag(dt, BOARD_TAU_S, t0), Lag(dt, PROBE_TAU_S, t0), Lag(dt, DIE_TAU_S, t0)
+    chunk = int(3600 * rate_hz)
+    with open(path, "wb") as sink:
+        sink.write(b"time_s,temperature_c,output_g,applied_g,run,power_on\n")
+        writer = None
+        for start in range(0, rows, chunk):
+            k = np.arange(start, min(start + chunk, rows))
+            t = k * dt
+            b = board(setpoint_c(t))
+            d_t = die(b) - 25.0
+            temp = probe(b) + rng.normal(0, 0.01, k.size)
+            out = 1.0 + 100e-6 * d_t + 0.8e-3 * d_t + rng.normal(0, 1.33e-3, k.size)
+            table = pa.table({"time_s": np.round(t, 3), "temperature_c": np.round(temp, 4),
+                              "output_g": np.round(out, 7), "applied_g": np.ones(k.size),
+                              "run": np.zeros(k.size, np.int64), "power_on": (k == 0).astype(np.int64)})
+            if writer is None:
+                writer = pacsv.CSVWriter(sink, table.schema,
+                                         write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"))
+            writer.write_table(table)
+        writer.close()
+    return rows
+
+
+def timed(cmd: list[str], env: dict | None = None) -> dict:
+    """Run ``cmd`` under /usr/bin/time -v: wall [s], user+sys CPU [s], peak RSS [MB]."""
+    r = subprocess.run(["/usr/bin/time", "-v", *cmd], capture_output=True, text=True, check=False,
+                       env={**os.environ, **(env or {})})
+    if r.returncode:
+        raise SystemExit(f"{' '.join(cmd)} failed:\n{r.stderr[-3000:]}")
+    grab = lambda key: re.search(rf"{key}: (.+)", r.stderr).group(1).strip()  # noqa: E731
+    wall = [float(x) for x in grab(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\)").split(":")]
+    return {"wall_s": sum(v * 60 ** i for i, v in enumerate(reversed(wall))),
+            "cpu_s": float(grab("User time \\(seconds\\)")) + float(grab("System time \\(seconds\\)")),
+            "peak_rss_mb": int(grab(r"Maximum resident set size \(kbytes\)")) / 1024, "stdout": r.stdout}
+
+
+def compare(csv: Path, out: Path, full_rate: bool = False) -> dict:
+    twin = str(Path(sys.executable).parent / "twin")
+    res = timed([twin, "compare", str(SCENARIO), str(csv), "--json", str(out)],
+                env={"TDE_TWIN_FULL_RATE": "1"} if full_rate else None)
+    res.pop("stdout")
+    r = json.loads(out.read_text())
+    lag = next((c for c in r["candidates"] if c["effect"] == "thermal_lag"), {})
+    return {**res, "rows": r["samples"], "selected": r["selected"], "confidence": r["confidence"],
+            "thermal_lag_tau_s": (lag.get("parameters_refined") or lag.get("parameters") or {}).get("tau_s"),
+            "rms_residual_mg": r["rms_residual_g"] * 1e3, "noise_floor_mg": r["noise_floor_g"] * 1e3,
+            "decimated_by": r["measurement"].get("diagnosed_on_means_of", 1), "_json": r}
+
+
+def agreement(fast: dict, full: dict) -> dict:
+    """Named effect, and every calibrated value / named amplitude of one path inside the other's 95 % CI."""
+    out = {"same_named_effects": fast["selected"] == full["selected"], "inside": [], "outside": []}
+    for eff, params in full["parameters"].items():
+        for name, p in params.items():
+            ci = p.get("ci95")
+            if ci is not None:
+                v = fast["parameters"][eff][name]["value"]
+                (out["inside"] if ci[0] <= v <= ci[1] else out["outside"]).append(f"{eff}.{name}")
+    top = full["selected"][0] if full["selected"] else None
+    if top:
+        a = next(c for c in full["candidates"] if c["effect"] == top)["amplitudes"]
+        b = next(c for c in fast["candidates"] if c["effect"] == top)["amplitudes"]
+        for k, v in a.items():
+            ok = abs(b[k]["value"] - v["value"]) <= v["ci95_half_width"]
+            (out["inside"] if ok else out["outside"]).append(f"{top}.{k}")
+    return out
+
+
+READERS = {
+    "ours (twin.measurement.load_measurements)":
+        "from twin.measurement import load_measurements; m = load_measurements([{p!r}]); print(len(m))",
+    "pandas.read_csv": "import pandas as pd; print(len(pd.read_csv({p!r})))",
+    "pyarrow.csv.read_csv": "import pyarrow.csv as c; print(c.read_csv({p!r}).num_rows)",
+    "polars.read_csv": "import polars as pl; print(pl.read_csv({p!r}).height)",
+}
+
+
+def play_scan_reference(x: np.ndarray, r: float) -> np.ndarray:
+    """The play operator as it was before issue 15: a log-step prefix scan of composed clamps."""
+    x = np.asarray(x, float)
+    lo, hi = x - r, x + r
+    shift = 1
+    while shift < x.size:
+        l_lo, l_hi = lo[shift:], hi[shift:]
+        new_lo = np.minimum(np.maximum(lo[:-shift], l_lo), l_hi)
+        hi[shift:] = np.minimum(np.maximum(hi[:-shift], l_lo), l_hi)
+        lo[shift:] = new_lo
+        shift *= 2
+    return np.minimum(np.maximum(x[0], lo), hi)
+
+
+PLAY_COLD = ("import time, numpy as np; t = time.perf_counter(); from sim.drift import play_operator; "
+             "play_operator(np.zeros(300_000), 1.0); print(time.perf_counter() - t)")
+
+
+def play_benchmark(n: int) -> dict:
+    from sim.drift import play_operator
+
+    x = np.cumsum(np.random.default_rng(0).normal(size=n)) * 0.01  # a random walk: many reversals
+    cold = {}
+    with tempfile.TemporaryDirectory() as cache:  # empty numba cache: compile, then load it
+        env = {"NUMBA_CACHE_DIR": cache, "PYTHONPATH": str(ROOT)}
+        for label in ("compile_s", "cached_load_s"):
+            r = subprocess.run([sys.executable, "-c", PLAY_COLD], capture_output=True, text=True,
+                               env={**os.environ, **env}, check=True)
+            cold[label] = float(r.stdout.strip())
+    play_operator(x[:300_000], 2.0)
+    t0 = time.perf_counter()
+    ref = play_scan_reference(x, 2.0)
+    t_scan = time.perf_counter() - t0
+    warm = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        new = play_operator(x, 2.0)
+        warm.append(time.perf_counter() - t0)
+    return {"samples": n, "prefix_scan_s": t_scan, "compiled_warm_s": min(warm), "speedup": t_scan / min(warm),
+            "max_abs_difference": float(np.max(np.abs(new - ref))), "first_call_in_a_new_process": cold,
+            "target_speedup": 50.0, "meets_target": t_scan / min(warm) >= 50.0}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--json", default="out/bench_long.json")
+    ap.add_argument("--skip-week", action="store_true", help="skip the 60.5 M-row (7-day) log")
+    ap.add_argument("--tmp", default=None, help="folder for the generated logs (default: system temp)")
+    args = ap.parse_args()
+    sizes = {"0.5M": 500_000, "24h": 8_640_000} | ({} if args.skip_week else {"7d": 60_480_000})
+    result: dict = {"rate_hz": 100.0, "generator": "synthetic, hidden_thermal_lag physics (see docstring)"}
+    with tempfile.TemporaryDirectory(dir=args.tmp) as d:
+        tmp = Path(d)
+        runs = {}
+        for label, rows in sizes.items():
+            csv = tmp / f"{label}.csv"
+            t0 = time.perf_counter()
+            write_log(csv, rows)
+            gen = time.perf_counter() - t0
+            runs[label] = compare(csv, tmp / f"{label}.json")
+            runs[label].update(csv_mb=csv.stat().st_size / 1e6, generate_s=gen,
+                               us_per_row=runs[label]["wall_s"] / rows * 1e6,
+                               cpu_us_per_row=runs[label]["cpu_s"] / rows * 1e6)
+            print(label, {k: v for k, v in runs[label].items() if k != "_json"}, flush=True)
+            if label == "24h":
+                full = compare(csv, tmp / "full.json", full_rate=True)
+                agree = agreement(runs[label]["_json"], full["_json"])
+                result["in_memory_24h"] = {k: v for k, v in full.items() if k != "_json"}
+                result["agreement_24h"] = agree
+                result["csv_read_24h"] = {name: {k: v for k, v in timed([sys.executable, "-c", code.format(p=str(csv))]).items()
+                                                 if k != "stdout"} for name, code in READERS.items()}
+            if label != "24h":
+                csv.unlink()
+        result["compare"] = {k: {kk: vv for kk, vv in v.items() if kk != "_json"} for k, v in runs.items()}
+    day = result["compare"]["24h"]
+    result["targets_24h"] = {"wall_s<=10": day["wall_s"] <= 10.0, "peak_rss_mb<=1536": day["peak_rss_mb"] <= 1536,
+                             "same_finding_as_in_memory": result["agreement_24h"]["same_named_effects"]
+                             and not result["agreement_24h"]["outside"]}
+    if "7d" in result["compare"]:
+        result["targets_7d"] = {"peak_rss_mb<=4096": result["compare"]["7d"]["peak_rss_mb"] <= 4096}
+    result["play_operator"] = play_benchmark(8_640_000)
+    result["note"] = "measured under load (2 shared cores); cpu_s is user+sys of the process"
+    write_json(args.json, result)
+
+
+if __name__ == "__main__":
+    main()

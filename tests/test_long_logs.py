@@ -1,0 +1,156 @@
+"""Day- and week-long logs: the compiled play operator, decimated diagnosis and its error bound.
+
+Fast versions only (small arrays); the speed-ups and the 8.6 M / 60 M-row figures are in
+``benchmarks/bench_long.py``.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+import sim.drift as drift
+from twin.diagnosis.decimate import (
+    block_aligned_factor,
+    block_sums,
+    decimate,
+    decimation_factor,
+    time_since_power_on_s,
+)
+from twin.diagnosis.noise import white_noise_sigma_from_differences
+from twin.diagnosis.problem import DiagnosisConfig, Problem
+from twin.diagnosis.screen import screening_progress
+from twin.effects import get_effect
+from twin.measurement import Measurement
+
+
+def _walk(n, seed=0):
+    return np.cumsum(np.random.default_rng(seed).normal(size=n)) * 0.05
+
+
+def _play_loop(x, r, p):
+    out = np.empty_like(x)
+    for k, v in enumerate(x):  # the definition, sample by sample
+        p = min(max(p, v - r), v + r)
+        out[k] = p
+    return out
+
+
+def test_play_operator_paths_are_identical_to_the_recursion():
+    x = _walk(3000)
+    ref = _play_loop(x, 0.7, x[0])
+    assert np.array_equal(drift.play_operator_scan(x, 0.7), ref)
+    big = _walk(drift.COMPILED_MIN_SIZE + 1234, seed=1)  # large enough for the compiled kernel
+    compiled, scan = drift.play_operator(big, 1.5, initial=0.3), drift.play_operator_scan(big, 1.5, initial=0.3)
+    # min/max only, no rounding: any correct order of evaluation gives the same bits
+    assert np.max(np.abs(compiled - scan)) <= 1e-12 and np.array_equal(compiled, scan)
+
+
+def test_play_operator_falls_back_to_the_scan_without_numba(monkeypatch):
+    monkeypatch.setenv("TDE_TWIN_NO_NUMBA", "1")
+    monkeypatch.setattr(drift, "_KERNEL", [])
+    x = _walk(drift.COMPILED_MIN_SIZE + 10, seed=2)
+    assert drift._play_kernel() is None
+    assert np.array_equal(drift.play_operator(x, 0.5), drift.play_operator_scan(x, 0.5))
+    with pytest.raises(ValueError):
+        drift.play_operator(x, -1.0)
+
+
+def test_existing_sample_rates_are_not_decimated(monkeypatch):
+    # 10-20 Hz logs (the paper case, the 515k-row benchmark, the golden outputs) run as before
+    assert [decimation_factor(r) for r in (1.0, 10.0, 11.0, 20.0)] == [1, 1, 1, 1]
+    assert decimation_factor(100.0) == decimation_factor(99.99999999781721) == 10 and decimation_factor(50.0) == 5 and decimation_factor(1000.0) == 100
+    monkeypatch.setenv("TDE_TWIN_FULL_RATE", "1")
+    assert decimation_factor(100.0) == 1
+    # means tile the 1000-sample screening block exactly; a week (60 M rows) gets 40-sample means
+    assert [block_aligned_factor(k, 1000) for k in (10, 31, 400, 2000)] == [10, 40, 500, 1000]
+
+
+def _chamber_log(hours, rate_hz, seed=3, runs=1):
+    """The bench_long.py physics, small: die lags the board by 190 s, 0.8 mg/°C, 1.33 mg noise."""
+    rng = np.random.default_rng(seed)
+    dt = 1.0 / rate_hz
+    t = np.arange(int(hours * 3600 * rate_hz)) * dt
+    cyc = np.array([[0, -20], [1200, -20], [3300, 50], [4500, 50], [8700, -20], [9900, -20]], float)
+    air = np.interp(np.mod(t, cyc[-1, 0]), cyc[:, 0], cyc[:, 1])
+    lag = lambda u, tau: lfilter([1 - np.exp(-dt / tau)], [1, -np.exp(-dt / tau)], u,  # noqa: E731
+                                 zi=[np.exp(-dt / tau) * u[0]])[0]
+    board = lag(air, 300.0)
+    die = lag(board, 190.0) - 25.0
+    out = 1.0 + 100e-6 * die + 0.8e-3 * die + rng.normal(0, 1.33e-3, t.size)
+    run = (np.arange(t.size) * runs // t.size).astype(np.int16)
+    return Measurement(t, lag(board, 2.0) + rng.normal(0, 0.01, t.size), out, np.ones(t.size), run,
+                       np.r_[True, np.diff(run) != 0])
+
+
+@pytest.mark.parametrize("k", [10, 40])
+@pytest.mark.parametrize("effect,values", [("thermal_hysteresis", {"half_width_c": 0.5}),
+                                           ("thermal_lag", {"tau_s": 15.0}),
+                                           ("thermal_gradient", {"tau_s": 30.0}),
+                                           ("stress_relaxation", {"tau_s": 1800.0}),
+                                           ("warmup", {"tau_s": 10.0})])
+def test_history_columns_on_means_match_full_rate_on_screening_blocks(effect, values, k):
+    """Each stateful column evaluated on k-sample means (10 Hz; 2.5 Hz as for a week) instead of
+    100 Hz, compared on the 10-s block means screening tests, at the shortest τ / narrowest play
+    width of the grids."""
+    m = _chamber_log(1.0, 100.0, runs=2)
+    m.power_on[len(m) // 4] = True  # a power cycle inside run 0
+    dec, blocks = decimate(m, k)
+    cfg = DiagnosisConfig()
+    problems = [Problem(m, cfg), Problem(dec, cfg, time_since_power_on_s=time_since_power_on_s(m, blocks, dec))]
+    eff = get_effect(effect)({}, **values)
+    cols = []
+    for p in problems:
+        col = eff.die_temperature(p.inputs) - p.inputs.die_c if eff.slot == "temperature" else \
+            next(iter(eff.basis(p.inputs).values())).output_g(p.applied)
+        cols.append(p.avg(np.broadcast_to(col, (p.n,))))
+    full, means = cols
+    if effect == "thermal_hysteresis":
+        # the play operator is 1-Lipschitz in the sup norm (Brokate & Sprekels 1996, §2.3), and
+        # holding each mean over its block does not change its output: |Δ| ≤ 1e-3·sup|T − T̄_block|
+        held = np.repeat(problems[1].inputs.die_c, blocks.lengths)
+        assert np.max(np.abs(full - means)) <= 1e-3 * np.max(np.abs(problems[0].inputs.die_c - held)) * (1 + 1e-9)
+    else:
+        # inside runs the error is the input's curvature within 0.1 s, O((0.1 s / τ)²) ≈ 1e-4 at
+        # τ = 10 s; a run cut on a ramp adds, in its edge blocks, the change over half a block
+        # (0.4 % of the column there at k = 10): 0.1 % in RMS holds both at k = 10 (measured
+        # ≤ 0.05 %), the edge term grows with k: 0.2 % at k = 40 (measured ≤ 0.1 %)
+        bound = 1e-3 * max(1.0, k / 20)
+        assert np.sqrt(np.mean((full - means) ** 2)) <= bound * np.sqrt(np.mean(full ** 2))
+
+
+def test_block_sums_give_the_full_rate_residual_figures():
+    m = _chamber_log(0.25, 40.0, runs=2)
+    dec, blocks = decimate(m, 4)
+    model = np.random.default_rng(5).normal(0, 1e-3, dec.time_s.size) + dec.output_g - 1.0
+    sums = block_sums(m, blocks, dec.applied_g, model)
+    r = m.output_g - m.applied_g - np.repeat(model, blocks.lengths)
+    # S2 − 2mS1 + Lm²: cancellation of terms ~1e-3 of each other loses ~3 of 16 digits
+    assert sums.rms(model) == pytest.approx(np.sqrt(np.mean(r * r)), rel=1e-9)
+    # differences held in float32 (7 digits): the floor is quoted to 3
+    assert sums.noise_floor_g == pytest.approx(white_noise_sigma_from_differences(r, m.run_index), rel=1e-5)
+
+
+def test_fast_log_diagnosed_on_means_names_the_same_lag_as_full_rate(monkeypatch):
+    """A 30 Hz, 2.75-h lag log: diagnosed on 10 Hz means and at full rate, the same effect, τ
+    within 3 % (its profile is flat to ~10 % here) and the per-sample figures within 0.5 %."""
+    from twin.diagnosis.compare import compare_measurement
+    from twin.model.scenario import load_scenario
+
+    loaded = load_scenario(Path(__file__).resolve().parents[1] / "scenarios/hidden_thermal_lag.yaml")
+    m = _chamber_log(2.75, 30.0)
+    ticks = []
+    with screening_progress(ticks.append):  # the hook a progress bar hangs on
+        _, fast = compare_measurement(loaded, m, [])
+    assert len(ticks) >= sum(len(get_effect(c["effect"]).grid()) for c in fast["candidates"])
+    monkeypatch.setenv("TDE_TWIN_FULL_RATE", "1")
+    _, full = compare_measurement(loaded, m, [])
+    assert fast["measurement"]["diagnosed_on_means_of"] == 3 and "diagnosed_on_means_of" not in full["measurement"]
+    assert fast["selected"][:1] == full["selected"][:1] == ["thermal_lag"]
+    tau = [next(c for c in r["candidates"] if c["effect"] == "thermal_lag")["parameters_refined"]["tau_s"]
+           for r in (fast, full)]
+    assert tau[0] == pytest.approx(tau[1], rel=0.03) and 150 < tau[1] < 230
+    for key in ("rms_residual_g", "noise_floor_g"):
+        assert fast[key] == pytest.approx(full[key], rel=5e-3)
+    assert fast["samples"] == full["samples"] == len(m)
