@@ -15,6 +15,17 @@ from twin.errors import TwinError
 AXES_HELP = "axes to calibrate, comma-separated (default x,y,z)"
 
 
+def _outputs(output: Path, json_out: str | None) -> list[Path]:
+    """The files a command writes, to check against its inputs: ``-o`` and ``--json`` (unless stdout)."""
+    return [output] if json_out in (None, "-") else [output, Path(json_out)]
+
+
+def _distinct(output: Path, json_out: str | None) -> None:
+    """``-o`` and ``--json`` must name two files (the second written would replace the first)."""
+    if json_out not in (None, "-") and Path(json_out).resolve() == Path(output).resolve():
+        raise TwinError(f"{json_out}: --json and -o name the same file; choose two paths")
+
+
 def _print_table(c, axes: list[str]) -> None:
     v = c.validation
     idx = [("x", "y", "z").index(a) for a in axes]
@@ -68,8 +79,11 @@ def calibrate(
     from twin.calibration.workflow import calibrate_imu, calibration_json, file_provenance
     from twin.measurement import imu_logs_by_instance
 
-    with guard(inputs=logs + ([columns] if columns else []), outputs=[output]):
+    with guard(inputs=logs + ([columns] if columns else []), outputs=_outputs(output, json_out)):
+        _distinct(output, json_out)
         chosen = parse_axes(axes)
+        if report is not None and report.exists() and not report.is_dir():
+            raise TwinError(f"{report}: exists and is not a folder; --report expects a folder to write into")
         cmap = column_map(columns, time=time_col, temperature=temperature_col, x=x_col, y=y_col, z=z_col,
                           time_unit=time_unit, output_unit=output_unit)
         per = imu_logs_by_instance(logs, cmap, imu)
@@ -86,7 +100,8 @@ def calibrate(
         if report is not None:
             typer.echo(f"report: {report / 'report.html'}")
         typer.echo(f"wrote {output}; firmware files: twin firmware {output} --format px4|ardupilot|json|c -o FILE")
-    emit_json(doc, json_out)
+    with guard():
+        emit_json(doc, json_out)
 
 
 @app.command()
@@ -102,7 +117,8 @@ def firmware(
     """Write the compensation in the exact format a flight controller or custom firmware loads."""
     from twin.calibration.deploy import export_calibration, read_calibration
 
-    with guard(inputs=[calibration], outputs=[output]):
+    with guard(inputs=[calibration], outputs=_outputs(output, json_out)):
+        _distinct(output, json_out)
         if sample_rate_hz is not None and not 0 < sample_rate_hz < 1e6:
             raise TwinError(f"--sample-rate-hz must be in (0, 1e6) Hz, got {sample_rate_hz}")
         doc = read_calibration(calibration)
@@ -110,7 +126,8 @@ def firmware(
     result = {"output": str(output), "format": fmt, "method": method, "imu": imu}
     if json_out != "-":
         typer.echo(f"wrote {output} ({fmt})")
-    emit_json(result, json_out)
+    with guard():
+        emit_json(result, json_out)
 
 
 @app.command()
@@ -131,7 +148,8 @@ def apply(
     from twin.io import atomic_write_text
     from twin.measurement import ColumnMap, read_imu_logs
 
-    with guard(inputs=[calibration, log] + ([columns] if columns else []), outputs=[output]):
+    with guard(inputs=[calibration, log] + ([columns] if columns else []), outputs=_outputs(output, json_out)):
+        _distinct(output, json_out)
         doc = read_calibration(calibration)
         logs = read_imu_logs(log, ColumnMap.from_yaml(columns) if columns else None)
         target = imu if imu is not None else (doc["imus"][0]["instance"] if len(doc["imus"]) == 1 else None)
@@ -167,5 +185,6 @@ def apply(
             typer.echo("  RMS about the applied g [mg] x / y / z: raw "
                        + " / ".join(f"{v:.2f}" for v in result["raw_rms_mg"].values()) + ", compensated "
                        + " / ".join(f"{v:.2f}" for v in result["residual_rms_mg"].values()))
-    emit_json(result, json_out)
+    with guard():
+        emit_json(result, json_out)
     sys.stdout.flush()

@@ -20,6 +20,7 @@ from twin.measurement.delimited import read_table, read_table_imu, write_canonic
 # Reader modules register themselves on import (the text reader sniffs last: it has priority -1).
 from twin.measurement.hdf5 import from_dataset, read_dataset_blind  # noqa: E402  (registers "hdf5")
 from twin.measurement.imu import ImuLog, usable_for_calibration
+from twin.measurement.parquet import read_parquet  # noqa: E402  (registers "parquet")
 from twin.measurement.registry import (
     Reader,
     ReadOptions,
@@ -36,5 +37,5 @@ from twin.measurement.ulog import read_ulog  # noqa: E402  (registers "ulog")
 
 __all__ = ["STANDARD_GRAVITY", "ColumnMap", "ImuLog", "Measurement", "MeasurementError", "ReadOptions", "Reader",
            "check", "concatenate", "find_reader", "from_dataset", "load_measurements", "load_reader_plugin",
-           "read_dataflash", "read_dataset_blind", "imu_logs_by_instance", "read_imu_logs", "read_table", "read_table_imu", "read_ulog",
+           "read_dataflash", "read_dataset_blind", "imu_logs_by_instance", "read_imu_logs", "read_parquet", "read_table", "read_table_imu", "read_ulog",
            "readers", "register_reader", "unregister_reader", "usable_for_calibration", "write_canonical_csv"]

@@ -12,7 +12,11 @@ from twin.text import did_you_mean
 
 TIME_FACTORS_S = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0, "h": 3600.0}
 OUTPUT_UNITS = ("g", "mg", "m/s^2", "m/s2", "digits")
+TEMPERATURE_UNITS = ("C", "K", "F")
 AXES = ("x", "y", "z")
+# delimiter spellings beyond one character: a tab typed on a command line, and runs of whitespace
+DELIMITER_WORDS = {"tab": "\t", "\\t": "\t", "whitespace": r"\s+", r"\s+": r"\s+"}
+COLUMN_KEYS = ("time", "temperature", "output", "applied", "run", "power_on", "x", "y", "z")
 
 
 @dataclass
@@ -26,6 +30,8 @@ class ColumnMap:
 
     Three output columns make the log an :class:`~twin.measurement.imu.ImuLog`: ``x``, ``y``,
     ``z`` (or ``output_cols``, a list of three); ``axis`` is the one a single-axis comparison uses.
+
+    :meth:`validate` checks every field's type and range; the readers call it before reading.
     """
 
     time: str | int | None = "time_s"
@@ -35,7 +41,7 @@ class ColumnMap:
     run: str | int | None = "run"
     power_on: str | int | None = "power_on"
     time_unit: str = "s"
-    temperature_unit: str = "C"
+    temperature_unit: str = "C"  # C, K or F
     output_unit: str = "g"
     output_scale: float = 1.0
     digit_mg: float | None = None  # the part's sensitivity [mg/digit]: required with output_unit digits
@@ -52,23 +58,86 @@ class ColumnMap:
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> ColumnMap:
-        import yaml
+        """The column map of a YAML file; a bad key or value names its line and what was expected."""
+        from twin.errors import TwinError
+        from twin.io import read_text
+        from twin.text import line_map, load_yaml_mapping
 
         p = Path(path)
-        if not p.is_file():
-            raise MeasurementError(f"{p}: column map not found")
+        text = read_text(p, "column map", MeasurementError)
         try:
-            data = yaml.safe_load(p.read_text()) or {}
-        except yaml.YAMLError as exc:
-            raise MeasurementError(f"{p}: malformed YAML: {exc}") from None
-        if not isinstance(data, dict):
-            raise MeasurementError(f"{p}: a column map is a YAML mapping")
+            data, _ = load_yaml_mapping(text, str(p), "a column map") if text.strip() else ({}, {})
+        except TwinError as exc:
+            raise MeasurementError(str(exc)) from None
+        lines = line_map(text)
         known = set(cls.__dataclass_fields__)
         for key in data:
             if key not in known:
-                raise MeasurementError(f"{p}: unknown column-map key {key!r}"
+                raise MeasurementError(f"{p}:{lines.get((key,), 1)}: unknown column-map key {key!r}"
                                        f"{did_you_mean(key, known, label='valid keys')}")
-        return cls(**data)
+        cmap = cls(**data)
+        cmap.validate(str(p), {key: lines.get((key,)) for key in data})
+        return cmap
+
+    def validate(self, where: str = "column map", lines: dict | None = None) -> ColumnMap:
+        """Check every field's type and range (before any file is read); ``self`` for chaining.
+
+        Raises
+        ------
+        MeasurementError
+            ``where[:line]: key: what was found, expected what`` for the first bad field.
+        """
+        lines = lines or {}
+
+        def bad(key: str, expected: str) -> MeasurementError:
+            line = lines.get(key)
+            return MeasurementError(f"{where}{f':{line}' if line else ''}: {key}: got "
+                                    f"{_shown(getattr(self, key))}, expected {expected}")
+
+        for key in COLUMN_KEYS:
+            value = getattr(self, key)
+            if value is not None and not _is_column(value):
+                raise bad(key, "a column name or a 0-based column index")
+        for key in ("temperature", "output"):
+            if getattr(self, key) is None:
+                raise bad(key, "a column name or a 0-based column index")
+        if self.output_cols is not None and not (isinstance(self.output_cols, (list, tuple))
+                                                 and len(self.output_cols) == 3
+                                                 and all(_is_column(c) for c in self.output_cols)):
+            raise bad("output_cols", "a list of three column names or indices (x, y, z)")
+        for key, allowed in (("time_unit", tuple(TIME_FACTORS_S)), ("output_unit", OUTPUT_UNITS),
+                             ("temperature_unit", TEMPERATURE_UNITS)):
+            value = getattr(self, key)
+            if not isinstance(value, str) or (value.upper() if key == "temperature_unit" else value) not in allowed:
+                raise bad(key, f"one of {', '.join(allowed)}")
+        if self.axis not in AXES:
+            raise bad("axis", "one of x, y, z")
+        for key in ("header", "invert_output"):
+            if not isinstance(getattr(self, key), bool):
+                raise bad(key, "true or false")
+        if not _is_int(self.skip_lines) or not 0 <= self.skip_lines <= 10**7:
+            raise bad("skip_lines", "a whole number of lines >= 0")
+        if not _is_number(self.output_scale) or self.output_scale == 0:
+            raise bad("output_scale", "a finite non-zero number")
+        for key in ("digit_mg", "sample_rate_hz"):
+            value = getattr(self, key)
+            if value is not None and not (_is_number(value) and 0 < value < 1e9):
+                raise bad(key, "a finite number > 0" + (" [Hz]" if key == "sample_rate_hz" else " [mg/digit]"))
+        if self.time is None and self.sample_rate_hz is None:
+            raise bad("sample_rate_hz", "a sample rate [Hz] when the log has no time column (time: null)")
+        if self.delimiter is not None and self.separator() is None:
+            raise bad("delimiter", "one character, 'tab' or 'whitespace'")
+        return self
+
+    def separator(self) -> str | None:
+        """The delimiter as the parser takes it (one character or ``\\s+``); ``None`` if unusable."""
+        d = self.delimiter
+        if not isinstance(d, str):
+            return None
+        if d in DELIMITER_WORDS:
+            return DELIMITER_WORDS[d]
+        # a quote, a digit, a sign, a point or a line break cannot separate numeric columns
+        return d if len(d) == 1 and d not in "\"'\r\n0123456789.+-eE" else None
 
     def axis_columns(self) -> tuple[str | int, str | int, str | int] | None:
         """The x, y, z output columns, or ``None`` for a single-axis log.
@@ -114,10 +183,35 @@ def convert_output(values: np.ndarray, cmap: ColumnMap) -> np.ndarray:
         out = values * cmap.digit_mg * 1e-3
     else:
         raise MeasurementError(f"output_unit must be one of {', '.join(OUTPUT_UNITS)}, got {unit!r}")
-    out = out * cmap.output_scale
+    if cmap.output_scale != 1.0:  # x·1 == x exactly: skip a copy of a long log
+        out = out * cmap.output_scale
     return -out if cmap.invert_output else out
 
 
 def convert_temperature_c(values: np.ndarray, cmap: ColumnMap) -> np.ndarray:
-    """Temperature column in °C."""
-    return values - 273.15 if cmap.temperature_unit.upper() == "K" else values
+    """Temperature column in °C from C, K (−273.15) or F ((F − 32)·5/9, exact by definition)."""
+    unit = cmap.temperature_unit.upper()
+    if unit == "K":
+        return values - 273.15
+    if unit == "F":
+        return (values - 32.0) * (5.0 / 9.0)
+    return values
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
+        and bool(np.isfinite(value))
+
+
+def _is_column(value) -> bool:
+    """A column name (non-empty text) or a 0-based index."""
+    return (isinstance(value, str) and value.strip() != "") or (_is_int(value) and 0 <= value < 100_000)
+
+
+def _shown(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."

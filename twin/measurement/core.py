@@ -14,6 +14,8 @@ import numpy as np
 from twin.errors import TwinError
 
 STANDARD_GRAVITY = 9.80665  # m/s² per g (CGPM 1901), the factor every m/s² log is divided by
+# the readers' floor: fewer rows cannot separate a drift from an offset (every reader says so alike)
+MIN_ROWS = 10
 
 
 class MeasurementError(TwinError):
@@ -86,30 +88,62 @@ def check(m: Measurement, where: str) -> None:
     Raises
     ------
     MeasurementError
-        Time not increasing, temperature in kelvin or implausible, output not in g.
+        Too few samples, arrays of different lengths or non-finite values (row named), time not
+        increasing, temperature in kelvin or implausible, output not in g.
     """
+    check_arrays(m, where)
+    single = m.run_index.size == 0 or m.run_index.min() == m.run_index.max()
     for r in np.unique(m.run_index):
-        t = m.time_s[m.run_index == r]
+        t = m.time_s if single else m.time_s[m.run_index == r]  # one run: no copy of a long log
         d = np.diff(t)
         if np.any(d <= 0):
             k = int(np.flatnonzero(d <= 0)[0])
             raise MeasurementError(f"{where}: time is not increasing at row {k + 2} of run {r} "
                                    f"({t[k]:g} s then {t[k + 1]:g} s); check time_unit or sort the file")
-        med = np.median(d) if d.size else 1.0
+        med = np.median(d, overwrite_input=True) if d.size else 1.0  # partitions d: recomputed below,
+        d = None  # so a long log holds one difference array at a time, not two
+        d = np.diff(t)
         gaps = np.flatnonzero(d > 20 * med)
         if gaps.size:
             m.notes.append(f"{where}: {gaps.size} gap(s) longer than 20 samples, largest {d.max():.3g} s at "
                            f"t = {t[gaps[np.argmax(d[gaps])]]:.6g} s (filters restart cleanly only at run starts)")
-    temp = m.temperature_c
-    if np.nanmedian(temp) > 150:
-        raise MeasurementError(f"{where}: temperature median {np.nanmedian(temp):.1f} looks like kelvin; "
-                               "set temperature_unit: K (or --temperature-unit K)")
-    if np.nanmin(temp) < -80 or np.nanmax(temp) > 200:
-        raise MeasurementError(f"{where}: temperature range {np.nanmin(temp):.1f}..{np.nanmax(temp):.1f} °C is implausible")
-    med = np.nanmedian(np.abs(m.output_g))
+        del d
+    temp = m.temperature_c  # finite (check_arrays): plain median, min and max
+    med = float(np.median(temp))
+    if med > 150:
+        raise MeasurementError(f"{where}: temperature median {med:.1f} looks like kelvin; "
+                               "set temperature_unit: K or F (or --temperature-unit K|F)")
+    if temp.min() < -80 or temp.max() > 200:
+        raise MeasurementError(f"{where}: temperature range {temp.min():.1f}..{temp.max():.1f} °C is implausible; "
+                               "expected -80..200 °C (set temperature_unit: K or F if it is not °C)")
+    med = float(np.median(np.abs(m.output_g)))
     if med > 4.0:
         raise MeasurementError(f"{where}: output median |{med:.3g}| g is implausible for an accelerometer; "
                                "in m/s² set output_unit: m/s^2, in digits set output_unit: digits")
+
+
+def check_arrays(m: Measurement, where: str) -> None:
+    """One length for every column, at least :data:`MIN_ROWS` rows, finite time, temperature and
+    output, and applied acceleration finite where the orientation is known (else all NaN)."""
+    n = m.time_s.size
+    columns = {"time": m.time_s, "temperature": m.temperature_c, "output": m.output_g, "applied": m.applied_g,
+               "run": m.run_index, "power_on": m.power_on}
+    shapes = {name: np.shape(a) for name, a in columns.items()}
+    if any(shape != (n,) for shape in shapes.values()):
+        raise MeasurementError(f"{where}: columns of different shapes ({', '.join(f'{k} {v}' for k, v in shapes.items())}); "
+                               "expected one length for every column")
+    if n < MIN_ROWS:
+        raise MeasurementError(f"{where}: {n} sample(s); expected at least {MIN_ROWS}")
+    finite = ["time", "temperature", "output"] + (["applied"] if m.applied_known else [])
+    for name in finite:
+        values = columns[name]
+        bad = ~np.isfinite(values)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise MeasurementError(f"{where}: {int(bad.sum())} non-finite {name} value(s), first {values[k]} at row "
+                                   f"{k + 1}; expected finite numbers (--skip-bad-rows drops such rows in text logs)")
+    if m.run_index.size and m.run_index.min() < 0:
+        raise MeasurementError(f"{where}: negative run index {int(m.run_index.min())}; expected runs numbered from 0")
 
 
 def concatenate(parts: list[Measurement]) -> Measurement:

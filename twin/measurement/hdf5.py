@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.measurement.core import Measurement, MeasurementError, check
+from twin.measurement.core import Measurement, MeasurementError, check, check_arrays
 from twin.measurement.imu import ImuLog
 from twin.measurement.registry import ReadOptions, register_reader
 
@@ -15,19 +15,42 @@ LOGGED = ["time_s", "temperature/thermometer_c", "output/output_g", "test/applie
           "test/power_on"]
 
 
-def read_dataset_blind(path: str | Path) -> Measurement:
-    """A ``twin run`` HDF5 file read as a measurement: the logged columns only, never the truth."""
+def logged_arrays(path: Path, names: list[str]) -> dict[str, np.ndarray]:
+    """The datasets ``names`` of an HDF5 file, each checked before it is read: present, a 1-D
+    numeric dataset, all of one non-zero length (a 2-D, text, empty or ragged file is one line)."""
     import h5py
 
-    path = Path(path)
     try:
         with h5py.File(path, "r") as f:
-            missing = [k for k in LOGGED if k not in f]
+            missing = [k for k in names if k not in f]
             if missing:
                 raise MeasurementError(f"{path}: not a twin dataset (missing {', '.join(missing)})")
-            arrays = {k: f[k][()] for k in LOGGED}
-    except OSError as exc:
-        raise MeasurementError(f"{path}: not a readable HDF5 file ({exc})") from None
+            lengths = {}
+            for k in names:
+                d = f[k]
+                if not isinstance(d, h5py.Dataset):
+                    raise MeasurementError(f"{path}: {k} is a group; expected a 1-D numeric dataset")
+                if d.ndim != 1 or d.dtype.kind not in "fiub":
+                    raise MeasurementError(f"{path}: {k} has shape {d.shape} and type {d.dtype}; "
+                                           "expected a 1-D numeric dataset")
+                lengths[k] = d.shape[0]
+            if len(set(lengths.values())) != 1:
+                raise MeasurementError(f"{path}: columns of different lengths "
+                                       f"({', '.join(f'{k} {n}' for k, n in lengths.items())}); expected one length")
+            if not lengths[names[0]]:
+                raise MeasurementError(f"{path}: the dataset holds no samples; expected a simulated run")
+            return {k: f[k][()] for k in names}
+    except (OSError, KeyError, TypeError, ValueError) as exc:
+        raise MeasurementError(f"{path}: not a readable HDF5 file ({' '.join(str(exc).split())})") from None
+
+
+def read_dataset_blind(path: str | Path) -> Measurement:
+    """A ``twin run`` HDF5 file read as a measurement: the logged columns only, never the truth."""
+    path = Path(path)
+    arrays = logged_arrays(path, LOGGED)
+    run = arrays["test/run_index"]
+    if not (np.isfinite(run).all() and run.min() >= 0 and run.max() <= np.iinfo(np.int16).max):
+        raise MeasurementError(f"{path}: test/run_index outside 0..{np.iinfo(np.int16).max}; expected run numbers")
     m = Measurement(arrays["time_s"].astype(float), arrays["temperature/thermometer_c"].astype(float),
                     arrays["output/output_g"].astype(float), arrays["test/applied_g"].astype(float),
                     arrays["test/run_index"].astype(np.int16), arrays["test/power_on"].astype(bool), True, [str(path)])
@@ -53,7 +76,19 @@ def read_three_axis_blind(path: Path) -> ImuLog:
     from twin.model.axes import imu_log_fields
     from twin.model.dataset import read_hdf5
 
-    return ImuLog(**{**imu_log_fields(read_hdf5(path)), "source": str(path)})
+    names = ["time_s", "temperature/thermometer_c"] + [f"output/accel_{a}_g" for a in "xyz"]
+    arrays = logged_arrays(path, names)  # checked first: the model's reader trusts its own files
+    m = Measurement(arrays["time_s"].astype(float), arrays["temperature/thermometer_c"].astype(float),
+                    np.zeros(arrays["time_s"].size), np.full(arrays["time_s"].size, np.nan),
+                    np.zeros(arrays["time_s"].size, np.int16), np.zeros(arrays["time_s"].size, bool), False)
+    check_arrays(m, str(path))
+    for a in "xyz":
+        if not np.isfinite(arrays[f"output/accel_{a}_g"]).all():
+            raise MeasurementError(f"{path}: output/accel_{a}_g holds non-finite values; expected finite g")
+    try:
+        return ImuLog(**{**imu_log_fields(read_hdf5(path)), "source": str(path)})
+    except (KeyError, ValueError) as exc:
+        raise MeasurementError(f"{path}: not a readable three-axis twin dataset ({exc})") from None
 
 
 def _is_three_axis(path: Path) -> bool:

@@ -196,7 +196,16 @@ def load_measurements(paths: list[str | Path], cmap: ColumnMap | None = None, *,
     if not paths:
         raise MeasurementError("no measurement files given")
     unknown = isinstance(applied_g, str) and applied_g == "unknown"
-    options = ReadOptions(cmap, skip_bad_rows, None if unknown else float(applied_g))
+    value = None
+    if not unknown and applied_g is not None:
+        try:
+            value = float(applied_g)
+        except (TypeError, ValueError):
+            value = np.nan
+        if not np.isfinite(value):
+            raise MeasurementError(f"--applied-g / applied_g: got {applied_g!r}, expected a finite acceleration "
+                                   "in g or 'unknown'")
+    options = ReadOptions(cmap, skip_bad_rows, value)
     axis = axis or (cmap.axis if cmap is not None else "z")
     parts = [as_measurement(read_any(p, options), Path(p), axis, instance, options.applied_g) for p in paths]
     m = concatenate(parts) if len(parts) > 1 else parts[0]
