@@ -62,6 +62,8 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_fitting.py --json out/bench_fitting.json
 	$(PY) benchmarks/bench_fem.py --json out/bench_fem.json
 	$(PY) benchmarks/bench_fleet.py --json out/bench_fleet.json
+	$(PY) benchmarks/bench_long.py --skip-week --json out/bench_long.json
+	$(PY) benchmarks/bench_discovery.py --seeds 50 --workers 2 --json out/bench_discovery.json
 	$(TWIN) benchmark scenarios/paper_iis328dq.yaml --seeds 3 --json out/benchmark.json --report out/benchmark
 
 clean:

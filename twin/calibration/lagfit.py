@@ -71,7 +71,8 @@ class Profile:
     def sse(self, tau_die_s: float, tau_rate_s: float | None) -> np.ndarray:
         F = self.design(tau_die_s, tau_rate_s, self.keep)
         coef, *_ = np.linalg.lstsq(F, self.y, rcond=None)
-        return ((self.y - F @ coef) ** 2).sum(axis=0)
+        # floored: an exact fit (a noise-free log) must not send log(SSE) to -inf in the scores
+        return np.maximum(((self.y - F @ coef) ** 2).sum(axis=0), np.finfo(float).tiny * self.y.shape[0])
 
     def residual(self, tau_die_s: float, tau_rate_s: float | None) -> np.ndarray:
         F = self.design(tau_die_s, tau_rate_s, self.keep)
@@ -84,14 +85,17 @@ def refine(objective, start: np.ndarray, bounds: list[tuple[float, float]]) -> n
     scaled = [(lo / 10.0, hi / 10.0) for lo, hi in bounds]
     res = minimize(lambda v: objective(v * 10.0), np.asarray(start, float) / 10.0, method="L-BFGS-B",
                    bounds=scaled, options={"eps": 1e-4, "maxiter": 200})
-    best = res.x * 10.0
-    return best if objective(best) <= objective(np.asarray(start, float)) else np.asarray(start, float)
+    best, start = res.x * 10.0, np.asarray(start, float)
+    if not np.all(np.isfinite(best)):  # a flat or exact (noise-free) objective can send L-BFGS to NaN
+        return start
+    return best if objective(best) <= objective(start) else start
 
 
 def ar1_effective_n(residual: np.ndarray) -> np.ndarray:
     """n·(1 − ρ)/(1 + ρ) per column, ρ the lag-1 autocorrelation (clipped to [0, 0.95])."""
     r = residual - residual.mean(axis=0)
-    rho = np.clip((r[1:] * r[:-1]).sum(axis=0) / (r * r).sum(axis=0), 0.0, 0.95)
+    power = np.maximum((r * r).sum(axis=0), np.finfo(float).tiny)  # a zero residual: ρ = 0, not NaN
+    rho = np.clip((r[1:] * r[:-1]).sum(axis=0) / power, 0.0, 0.95)
     return r.shape[0] * (1 - rho) / (1 + rho)
 
 
@@ -167,8 +171,9 @@ def covariance(profile: Profile, tau_d: np.ndarray, tau_g: np.ndarray, coef: lis
         dcols = [_d_dtau(profile, tau_d[a], g, coef[a], keep, "die")]
         if g is not None:
             dcols.append(_d_dtau(profile, tau_d[a], g, coef[a], keep, "rate"))
-        rho = float(np.clip((r[1:] @ r[:-1]) / (r @ r), 0.0, 0.95))
-        sigma = np.sqrt((r @ r) / max(n - F.shape[1] - len(dcols), 1) * (1 + rho) / (1 - rho))
+        power = max(float(r @ r), np.finfo(float).tiny * n)  # an exact fit: zero-width intervals, not NaN
+        rho = float(np.clip((r[1:] @ r[:-1]) / power, 0.0, 0.95))
+        sigma = np.sqrt(power / max(n - F.shape[1] - len(dcols), 1) * (1 + rho) / (1 - rho))
         blocks.append((F / sigma, np.column_stack(dcols) / sigma))
     n_lin = [b[0].shape[1] for b in blocks]
     n_tau = 2 if shared and np.isfinite(tau_g[0]) else (1 if shared else 0)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -28,13 +29,13 @@ def compare(
     temperature_col: Annotated[Optional[str], typer.Option(help="temperature column")] = None,
     output_col: Annotated[Optional[str], typer.Option(help="acceleration column")] = None,
     time_unit: Annotated[Optional[str], typer.Option(help="s, ms, us, min, h")] = None,
-    temperature_unit: Annotated[Optional[str], typer.Option(help="C or K")] = None,
+    temperature_unit: Annotated[Optional[str], typer.Option(help="C, K or F")] = None,
     output_unit: Annotated[Optional[str], typer.Option(help="g, mg, m/s^2, digits")] = None,
     output_scale: Annotated[Optional[float], typer.Option(help="multiply the output after unit conversion")] = None,
     skip_lines: Annotated[Optional[int], typer.Option(min=0, help="banner lines to skip")] = None,
     delimiter: Annotated[Optional[str], typer.Option(help="column delimiter (default: sniffed)")] = None,
     no_header: Annotated[bool, typer.Option("--no-header", help="the file has no header line (columns by index)")] = False,
-    sample_rate_hz: Annotated[Optional[float], typer.Option(min=0, help="sample rate for logs without a time column [Hz]")] = None,
+    sample_rate_hz: Annotated[Optional[float], typer.Option(min=1e-6, help="sample rate for logs without a time column [Hz]")] = None,
     skip_bad_rows: Annotated[bool, typer.Option("--skip-bad-rows", help="skip corrupted rows and report how many")] = False,
     average_s: Annotated[float, typer.Option(min=0.1, help="screening block average [s]")] = 10.0,
     discover: Annotated[bool, typer.Option("--discover", help="when the library leaves structure, search a dictionary of terms for the missing one and write it as a plugin")] = False,
@@ -61,9 +62,16 @@ def compare(
                 if col is not None:
                     setattr(cmap, a, col)
         applied = _applied(applied_g, bool(axes))
-        result = run_compare(scenario, measurements, cmap, with_effect or [], applied, skip_bad_rows, average_s,
-                             report, json_out, axes=parse_axes(axes) if axes else None, imu=imu,
-                             discover=discover, discover_plugin=discover_plugin, plugins=plugin)
+        from tqdm import tqdm
+
+        from twin.diagnosis.screen import screening_progress
+
+        # a bar on a terminal only, after 2 s of screening (long logs), never with --json -
+        with tqdm(desc="screening", unit="fit", file=sys.stderr, leave=False, delay=2.0,
+                  disable=True if json_out == "-" else None) as bar, screening_progress(bar.update):
+            result = run_compare(scenario, measurements, cmap, with_effect or [], applied, skip_bad_rows, average_s,
+                                 report, json_out, axes=parse_axes(axes) if axes else None, imu=imu,
+                                 discover=discover, discover_plugin=discover_plugin, plugins=plugin)
     if json_out != "-" and "imus" in result:
         typer.echo(result["finding"])
         for imu_result in result["imus"]:

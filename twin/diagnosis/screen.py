@@ -74,12 +74,12 @@ def candidate_names(comp: Composition) -> list[str]:
     Returns
     -------
     list of str
-        Sorted effect names, ``null`` excluded.
+        Sorted effect names, ``null`` and effects not screened blind (``screened = False``) excluded.
     """
     present = {e.name for e in comp.effects}
     has_slot = comp.temperature_effect is not None
     return sorted(n for n, c in REGISTRY.items()
-                  if n not in present and n != "null" and not (c.slot == "temperature" and has_slot))
+                  if n not in present and n != "null" and c.screened and not (c.slot == "temperature" and has_slot))
 
 
 def is_testable(c: CandidateResult, cfg: DiagnosisConfig) -> bool:

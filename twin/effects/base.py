@@ -138,6 +138,7 @@ class Effect:
     slot: ClassVar[str] = "drift"  # "drift" | "temperature"
     identifiable: ClassVar[bool] = True  # False: structurally unidentifiable from residuals
     acts_on_thermometer: ClassVar[bool] = False  # in a simulated device: shifts the reading, not the output
+    screened: ClassVar[bool] = True  # False: a forward model added by name (--with-effect), not screened blind
 
     def __init__(self, context: dict[str, Any] | None = None, **values: float) -> None:
         known = {p.name: p for p in self.parameters}

@@ -45,6 +45,9 @@ class PackageFem(Effect):
     description = ("package CTE mismatch solved by finite elements (generalised plane strain, Q2) and carried to "
                    "the comb's anchors: bias and scale factor from geometry and materials (docs/fem.md)")
     reads = ("die_c", "applied_g")
+    # not screened blind: its bias is a bias tempco (aliased with static_bias_tc) and each first
+    # use costs a finite-element solve; compare it by name with --with-effect package_fem
+    screened = False
     parameters = (
         Parameter("bias_scale", "1", 1.0, (-20.0, 20.0), "1 = as computed; a fitted value scales the asymmetry "
                   "(population spread, memo §0 item 2)"),

@@ -2,7 +2,7 @@
 
 import sys
 
-from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.effects.base import Effect, Parameter, register
 
 
 @register
