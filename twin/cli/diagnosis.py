@@ -35,7 +35,7 @@ def compare(
     skip_lines: Annotated[Optional[int], typer.Option(min=0, help="banner lines to skip")] = None,
     delimiter: Annotated[Optional[str], typer.Option(help="column delimiter (default: sniffed)")] = None,
     no_header: Annotated[bool, typer.Option("--no-header", help="the file has no header line (columns by index)")] = False,
-    sample_rate_hz: Annotated[Optional[float], typer.Option(min=1e-6, help="sample rate for logs without a time column [Hz]")] = None,
+    sample_rate_hz: Annotated[Optional[float], typer.Option(help="sample rate for logs without a time column [Hz]")] = None,
     skip_bad_rows: Annotated[bool, typer.Option("--skip-bad-rows", help="skip corrupted rows and report how many")] = False,
     average_s: Annotated[float, typer.Option(min=0.1, help="screening block average [s]")] = 10.0,
     discover: Annotated[bool, typer.Option("--discover", help="when the library leaves structure, search a dictionary of terms for the missing one and write it as a plugin")] = False,
