@@ -3,6 +3,7 @@
 import json
 import os
 import platform
+import sys
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -17,12 +18,15 @@ def machine() -> dict:
     except OSError:
         pass
     libs = {}
-    for name in ("tde-twin", "numpy", "scipy", "torch", "pandas", "scikit-learn", "pyulog", "pymavlink"):
+    for name in ("tde-twin", "numpy", "scipy", "torch", "pandas", "scikit-learn", "pyulog", "pymavlink", "numba",
+                 "pyarrow", "scikit-fem", "dask", "distributed", "polars"):
         try:
             libs[name] = version(name)
         except PackageNotFoundError:
             pass
     threads = {k: os.environ[k] for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS") if k in os.environ}
+    if "torch" in sys.modules:  # the thread count torch actually ran with, when the benchmark used it
+        threads["torch_num_threads"] = sys.modules["torch"].get_num_threads()
     return {"cpu_model": cpu, "logical_cpus": os.cpu_count(), "python": platform.python_version(),
             "platform": platform.platform(), "thread_env": threads, "libraries": libs}
 
