@@ -5,12 +5,14 @@
    hidden layers of the whole population, chunked) against pygad (``fitness_batch_size`` =
    population) and evotorch (a vectorised ``Problem``, its GeneticAlgorithm), both handed the
    batched torch fitness a user would write (float32, every network at once by broadcasting).
-   Target (issue 6): ≥ 3× the best peer. evotorch is also timed with our kernel as its fitness,
+   Target (issue 15): ≥ 10× the best peer. evotorch is also timed with our kernel as its fitness,
    to show how much of the ratio is the kernel. Where the time goes is measured too: one evaluation is
    31.4 MFLOP + 3.9 M activations; the activation's share is timed separately, and the vendor's
    tanh beside its sigmoid (the kernel runs tanh networks as sigmoid networks with rescaled weights).
 2. PSO-GA-BPNN end to end (50 iterations = 50 GA generations + 50 PSO steps, then L-BFGS) against
-   scikit-learn's MLPRegressor(10, tanh, lbfgs): wall time (target ≤ 3×) and test MSE on cycle 3;
+   scikit-learn's MLPRegressor(10, tanh, lbfgs): wall time (target, issue 15: ≤ 2× at equal test
+   MSE) and test MSE on cycle 3, with the search's fitness on all training samples (the paper's
+   form) and on every 8th (``sample_stride=8``; L-BFGS still on all of them);
    our extension features (paper + dT/dt) against the noise-only MSE (target ≤ 1.05×).
 
 Needs the ``bench`` extra (pygad, evotorch): pip install -e '.[bench]'.
@@ -41,6 +43,9 @@ from twin.model.scenario import load_scenario  # noqa: E402
 from twin.model.simulate import simulate  # noqa: E402
 
 POP, HIDDEN = 50, 10
+# The search stage's fitness on every 8th training sample (10 Hz → 1.25 Hz): a 60 °C/h ramp moves
+# the features by 0.013 °C in 0.8 s, so the ranking holds (measured: stride_rank_correlation).
+SEARCH_STRIDE = 8
 
 
 def data(quick: bool):
@@ -140,13 +145,27 @@ def fitness_benchmark(Xs: np.ndarray, ys: np.ndarray) -> dict:
         "evotorch_vectorized_evals_per_s": evo_rate,
         "evotorch_with_our_kernel_evals_per_s": evo_ours_rate,
         "ratio_ours_over_best_peer": ours / best_peer,
-        "target_ratio": 3.0,
-        "meets_target": ours / best_peer >= 3.0,
+        "target_ratio": 10.0,
+        "meets_target": ours / best_peer >= 10.0,
         "gflop_per_s": flop * ours / 1e9,
         "activation_share_of_population_eval": t_sigmoid / t_eval,
         "sigmoid_per_s_millions": POP * Xs.shape[0] * HIDDEN / t_sigmoid / 1e6,
         "tanh_per_s_millions": POP * Xs.shape[0] * HIDDEN / t_tanh / 1e6,
     }
+
+
+def stride_rank_correlation(X: np.ndarray, y: np.ndarray, networks: int = 200) -> float:
+    """Spearman correlation of the training MSE of random networks on all samples and on every
+    ``SEARCH_STRIDE``-th one: 1 when the strided fitness ranks a population as the full one does."""
+    from scipy.stats import spearmanr
+
+    Xs = torch.as_tensor((X - X.mean(0)) / X.std(0), dtype=torch.float32)
+    ys = torch.as_tensor((y - y.mean()) / y.std(), dtype=torch.float32)
+    pop = torch.as_tensor(init_weights(X.shape[1], HIDDEN, np.random.default_rng(1), size=networks),
+                          dtype=torch.float32)
+    full = population_mse(pop, Xs, ys, HIDDEN).numpy()
+    strided = population_mse(pop, Xs[::SEARCH_STRIDE], ys[::SEARCH_STRIDE], HIDDEN).numpy()
+    return float(spearmanr(full, strided).statistic)
 
 
 def end_to_end(m, train, test, noise, quick: bool) -> dict:
@@ -160,12 +179,13 @@ def end_to_end(m, train, test, noise, quick: bool) -> dict:
         Xtr = fs.transform(m.temperature_c, m.time_s)
         Xte = Xtr[test]
         Xtr = Xtr[train]
-        model = EvolvedBPNN("psoga", generations=10 if quick else 50, population_size=POP, hidden_size=HIDDEN,
-                            bp_iter=100, random_state=0)
-        ts = time.perf_counter()
-        model.fit(Xtr, y[train])
-        t_ours = time.perf_counter() - ts
-        mse_ours = float(np.mean((m.output_g[test] - model.predict(Xte) - m.applied_g[test]) ** 2))
+        runs = {}
+        for stride in (1, SEARCH_STRIDE):
+            model = EvolvedBPNN("psoga", generations=10 if quick else 50, population_size=POP, hidden_size=HIDDEN,
+                                bp_iter=100, sample_stride=stride, random_state=0)
+            ts = time.perf_counter()
+            model.fit(Xtr, y[train])
+            runs[stride] = (time.perf_counter() - ts, model)
         mu, sd = Xtr.mean(0), Xtr.std(0)
         ys_mu, ys_sd = y[train].mean(), y[train].std()
         sk = MLPRegressor(hidden_layer_sizes=(HIDDEN,), activation="tanh", solver="lbfgs", max_iter=200, random_state=0)
@@ -175,12 +195,23 @@ def end_to_end(m, train, test, noise, quick: bool) -> dict:
         pred = sk.predict((Xte - mu) / sd) * ys_sd + ys_mu
         mse_sk = float(np.mean((m.output_g[test] - pred - m.applied_g[test]) ** 2))
         floor = float(np.mean(noise[test] ** 2))
-        out[label] = {"psoga_bpnn_s": t_ours, "mlpregressor_s": t_sk, "wall_ratio": t_ours / t_sk,
-                      "psoga_bpnn_test_mse": mse_ours, "mlpregressor_test_mse": mse_sk, "noise_only_mse": floor,
-                      "psoga_bpnn_over_noise": mse_ours / floor, "mlpregressor_over_noise": mse_sk / floor,
-                      "fitness_evaluations": model.n_evaluations_}
-    out["target_wall_ratio"] = 3.0
-    out["meets_wall_target"] = out["paper_features"]["wall_ratio"] <= 3.0
+        out[label] = {"mlpregressor_s": t_sk, "mlpregressor_test_mse": mse_sk, "noise_only_mse": floor,
+                      "mlpregressor_over_noise": mse_sk / floor}
+        for stride, (t_ours, model) in runs.items():
+            mse_ours = float(np.mean((m.output_g[test] - model.predict(Xte) - m.applied_g[test]) ** 2))
+            key = "psoga_bpnn" if stride == 1 else f"psoga_bpnn_search_stride_{stride}"
+            out[label].update({f"{key}_s": t_ours, f"{key}_wall_ratio": t_ours / t_sk, f"{key}_test_mse": mse_ours,
+                               f"{key}_over_noise": mse_ours / floor,
+                               f"{key}_test_mse_over_mlpregressor": mse_ours / mse_sk,
+                               f"{key}_fitness_evaluations": model.n_evaluations_})
+        out[label]["search_stride_fitness_rank_correlation"] = stride_rank_correlation(Xtr, y[train])
+    paper = out["paper_features"]
+    fast = f"psoga_bpnn_search_stride_{SEARCH_STRIDE}"
+    out["target_wall_ratio"] = 2.0
+    out["meets_wall_target_full_search"] = paper["psoga_bpnn_wall_ratio"] <= 2.0
+    # "at equal test MSE": not more than 1 % above MLPRegressor's test MSE
+    out["meets_wall_target_strided_search"] = (paper[f"{fast}_wall_ratio"] <= 2.0
+                                               and paper[f"{fast}_test_mse_over_mlpregressor"] <= 1.01)
     out["extension_meets_noise_target"] = out["extension_features"]["psoga_bpnn_over_noise"] <= 1.05
     return out
 
