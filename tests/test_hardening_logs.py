@@ -270,3 +270,17 @@ def test_column_map_values_of_the_wrong_type_are_refused_before_reading(keys, fr
     with pytest.raises(tm.MeasurementError, match=None) as exc:
         tm.read_table(CORPUS / "valid.csv", tm.ColumnMap(**keys))
     assert fragment in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_a_ulog_whose_first_message_size_is_corrupt_is_one_line(tmp_path):
+    # found by the long property profile: pyulog seeks before the file's start and raises OSError
+    from logfixtures import chamber_run, write_ulog
+
+    path = tmp_path / "log.ulg"
+    write_ulog(path, chamber_run(n=60))
+    raw = bytearray(path.read_bytes())
+    raw[16] = 0  # the first message's size, just after the 16-byte file header
+    path.write_bytes(bytes(raw))
+    with pytest.raises(tm.MeasurementError) as exc:
+        tm.read_imu_logs(path)
+    assert "\n" not in str(exc.value) and "not a readable ULog file" in str(exc.value)

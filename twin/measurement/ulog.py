@@ -32,7 +32,9 @@ def _parse(path: Path, topics: list[str] | None):
     try:
         with contextlib.redirect_stdout(io.StringIO()):  # pyulog prints its warnings on corrupt data
             return ULog(str(path), topics)
-    except (ULogException, ValueError, KeyError, IndexError, struct.error, UnicodeDecodeError) as exc:
+    # OSError: a corrupt offset makes pyulog seek before the start (EINVAL)
+    except (ULogException, ValueError, KeyError, IndexError, struct.error, UnicodeDecodeError, OSError,
+            OverflowError) as exc:
         raise MeasurementError(f"{path}: not a readable ULog file ({type(exc).__name__}: {exc})") from None
 
 
