@@ -17,8 +17,9 @@ from twin.diagnosis.decimate import (
     decimate,
     decimation_factor,
     time_since_power_on_s,
+    white_sigma_in_place,
 )
-from twin.diagnosis.noise import white_noise_sigma_from_differences
+from twin.diagnosis.noise import white_noise_sigma_from_differences, white_sigma_of_differences
 from twin.diagnosis.problem import DiagnosisConfig, Problem
 from twin.diagnosis.screen import screening_progress
 from twin.effects import get_effect
@@ -154,3 +155,21 @@ def test_fast_log_diagnosed_on_means_names_the_same_lag_as_full_rate(monkeypatch
     for key in ("rms_residual_g", "noise_floor_g"):
         assert fast[key] == pytest.approx(full[key], rel=5e-3)
     assert fast["samples"] == full["samples"] == len(m)
+
+
+@pytest.mark.parametrize("case", ["gaussian", "spikes", "mostly zero", "quantised", "all zero", "float64", "empty"])
+def test_the_in_place_noise_floor_is_the_same_number(case):
+    d = np.random.default_rng(3).normal(0, 1e-3, 20_001).astype(np.float32)
+    if case == "spikes":
+        d[::97] *= 50
+    elif case == "mostly zero":  # the 75th percentile of |d| is 0: the fallback scale needs the sign
+        d[np.random.default_rng(4).random(d.size) < 0.8] = 0
+    elif case == "quantised":
+        d = (np.round(d * 1e3) / 1e3).astype(np.float32)
+    elif case == "all zero":
+        d = np.zeros(10, np.float32)
+    elif case == "float64":
+        d = d.astype(float)
+    elif case == "empty":
+        d = d[:0]
+    assert white_sigma_in_place(d.copy()) == white_sigma_of_differences(d)

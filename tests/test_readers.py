@@ -239,3 +239,135 @@ def test_importing_measurements_loads_no_flight_log_library():
     code = "import sys, twin.measurement; print(sorted(m for m in ('pyulog', 'pymavlink') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT).stdout
     assert out.strip() == "[]"
+
+
+# ---- large delimited logs: read in chunks into the final arrays ---------------------------------
+
+CORPUS = ROOT / "tests" / "adversarial" / "logs"
+ARRAYS = ("time_s", "temperature_c", "output_g", "applied_g", "run_index", "power_on")
+
+
+def _outcome(read):
+    """A reader's arrays and flags, or its error message."""
+    try:
+        m = read()
+    except tm.MeasurementError as exc:
+        return str(exc)
+    return [getattr(m, a) for a in ARRAYS] + [m.applied_known, m.bad_rows_skipped, m.notes]
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, str) or isinstance(b, str):
+        return a == b
+    return all(np.array_equal(x, y, equal_nan=True) and x.dtype == y.dtype for x, y in zip(a[:6], b[:6])) \
+        and a[6:] == b[6:]
+
+
+@pytest.fixture
+def chunked_reader(monkeypatch):
+    """Every file counts as large, in chunks of 7 rows, from an estimate of 5 rows (so the arrays grow)."""
+    from twin.measurement import chunked, delimited
+
+    taken = []
+    original = chunked.measurement_from_chunks
+
+    def spy(*args, **kwargs):
+        taken.append(original(*args, **kwargs))
+        return taken[-1]
+
+    def force(on: bool):
+        if on:
+            monkeypatch.setenv(chunked.LARGE_FILE_ENV, "0")
+        else:
+            monkeypatch.delenv(chunked.LARGE_FILE_ENV, raising=False)
+
+    monkeypatch.setattr(chunked, "CHUNK_ROWS", 7)
+    monkeypatch.setattr(chunked, "estimated_rows", lambda *a: 5)
+    monkeypatch.setattr(chunked, "measurement_from_chunks", spy)
+    assert delimited.chunked is chunked
+    return force, taken
+
+
+def _written(path, text: str):
+    path.write_text(text)
+    return path
+
+
+CHUNK_CASES = {
+    "canonical": (lambda p: write_canonical(p), {}, {}),
+    "banner, semicolons, no header, ms": (
+        lambda p: _written(p, "# rig 4\n# 2024\n" + "".join(f"{i * 10};{25 + np.sin(i / 9):.5f};{0.98 + 1e-5 * i:.8f}\n"
+                                                          for i in range(60))),
+        dict(time=0, temperature=1, output=2, header=False, skip_lines=2, time_unit="ms"), dict(applied_g=1.0)),
+    "tabs, kelvin, m/s^2, inverted, scaled": (
+        lambda p: _written(p, "t\tT\ta\trun\n" + "".join(f"{i}\t {298.15 + i / 7:.3f}\t{9.80665 + i * 1e-4:.6f}\t"
+                                                       f"{i // 25}\n" for i in range(60))),
+        dict(time="t", temperature="T", output="a", run="run", temperature_unit="K", output_unit="m/s^2",
+             invert_output=True, output_scale=2.0), {}),
+    "no time column, fahrenheit, mg, power flags": (
+        lambda p: _written(p, "temp_f,acc_mg,on\n" + "".join(f"{77 + i / 3:.2f},{1000 + i:.1f},{int(i % 20 == 0)}\n"
+                                                          for i in range(45))),
+        dict(time=None, sample_rate_hz=4.0, temperature="temp_f", output="acc_mg", power_on="on",
+             temperature_unit="F", output_unit="mg"), dict(applied_g=None)),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CHUNK_CASES))
+def test_large_file_path_gives_the_in_memory_arrays_bit_for_bit(case, tmp_path, chunked_reader):
+    force, taken = chunked_reader
+    write, keys, options = CHUNK_CASES[case]
+    path = write(tmp_path / "log.csv")
+    read = lambda: tm.read_table(path, tm.ColumnMap(**keys), **options)  # noqa: E731
+    force(False)
+    in_memory = _outcome(read)
+    assert not taken and not isinstance(in_memory, str)
+    force(True)
+    chunks = _outcome(read)
+    assert taken and taken[-1] is not None  # the chunked path read it, in several chunks
+    assert _same(chunks, in_memory)
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in CORPUS.glob("*.csv")))
+@pytest.mark.parametrize("skip", [False, True])
+def test_large_file_path_gives_the_same_answer_on_every_bad_log(name, skip, chunked_reader):
+    force, _ = chunked_reader
+    read = lambda: tm.read_table(CORPUS / name, skip_bad_rows=skip)  # noqa: E731
+    force(False)
+    before = _outcome(read)
+    force(True)
+    assert _same(_outcome(read), before)
+
+
+def test_a_broken_row_in_a_large_file_names_its_line_in_one_line(tmp_path, chunked_reader):
+    force, taken = chunked_reader
+    rows = [f"{i * 0.01:.2f},{20 + i * 1e-3:.4f},{1 + i * 1e-6:.7f},1,0,{int(i == 0)}" for i in range(200)]
+    body = "time_s,temperature_c,output_g,applied_g,run,power_on\n"
+    force(True)
+    for broken, fragment in (("1.50,20.15,1.0001,1,0,0,9", "Expected 6 fields in line 152, saw 7"),
+                             ("1.50,20.15,1.0001,1,0", "line(s) 152"), ("1.50,20.15,abc,1,0,0", "line(s) 152"),
+                             ("1.50,20.15,,1,0,0", "line(s) 152"), ("1.50,20.15,1.0001,1,0.5,0", "about line 152"),
+                             ("1.49,20.15,1.0001,1,0,0", "time is not increasing at row 151")):
+        path = tmp_path / "week.csv"
+        path.write_text(body + "\n".join(rows[:150] + [broken] + rows[151:]) + "\n")
+        with pytest.raises(tm.MeasurementError) as exc:
+            tm.read_table(path)
+        message = str(exc.value)
+        assert fragment in message and "\n" not in message, message
+        force(False)
+        with pytest.raises(tm.MeasurementError) as small:
+            tm.read_table(path)
+        force(True)
+        assert str(small.value) == message
+
+
+def test_the_large_file_threshold_is_a_constant_with_an_environment_override(monkeypatch, tmp_path):
+    from twin.measurement import chunked
+
+    monkeypatch.delenv(chunked.LARGE_FILE_ENV, raising=False)
+    assert chunked.large_file_bytes() == chunked.LARGE_FILE_BYTES == 256 * 2**20
+    path = write_canonical(tmp_path / "c.csv")
+    assert not chunked.is_large(path)
+    monkeypatch.setenv(chunked.LARGE_FILE_ENV, str(path.stat().st_size))
+    assert chunked.is_large(path)
+    monkeypatch.setenv(chunked.LARGE_FILE_ENV, "not a size")
+    assert chunked.large_file_bytes() == chunked.LARGE_FILE_BYTES

@@ -60,8 +60,9 @@ class Measurement:
     @property
     def sample_rate_hz(self) -> float:
         d = np.diff(self.time_s)
-        d = d[d > 0]
-        return float(1.0 / np.median(d)) if d.size else 1.0
+        if not (d > 0).all():  # a long log's increasing time: no second copy of its differences
+            d = d[d > 0]
+        return float(1.0 / np.median(d, overwrite_input=True)) if d.size else 1.0
 
     @property
     def runs(self) -> int:
@@ -116,7 +117,8 @@ def check(m: Measurement, where: str) -> None:
     if temp.min() < -80 or temp.max() > 200:
         raise MeasurementError(f"{where}: temperature range {temp.min():.1f}..{temp.max():.1f} °C is implausible; "
                                "expected -80..200 °C (set temperature_unit: K or F if it is not °C)")
-    med = float(np.median(np.abs(m.output_g)))
+    med = float(np.median(np.abs(m.output_g), overwrite_input=True))  # partitions the temporary |output|,
+    # not a second copy of it (0.5 GB less for a week at 100 Hz)
     if med > 4.0:
         raise MeasurementError(f"{where}: output median |{med:.3g}| g is implausible for an accelerometer; "
                                "in m/s² set output_unit: m/s^2, in digits set output_unit: digits")
