@@ -284,3 +284,18 @@ def test_a_ulog_whose_first_message_size_is_corrupt_is_one_line(tmp_path):
     with pytest.raises(tm.MeasurementError) as exc:
         tm.read_imu_logs(path)
     assert "\n" not in str(exc.value) and "not a readable ULog file" in str(exc.value)
+
+
+def test_a_negative_zero_time_reads_the_same_message_on_both_paths(tmp_path, monkeypatch):
+    # found by the long property profile: the fast parser kept −0.0, the careful one 0.0 ("-0 s" vs "0 s")
+    rows = [f"{i},{0.3 * i:.4f},{1 + 1e-4 * i:.7f}\n" for i in range(15)]
+    rows[8] = "-0,2.4000,1.0008000\n"
+    path = tmp_path / "log.csv"
+    path.write_text("".join(rows))
+    cmap = tm.ColumnMap(time=0, temperature=1, output=2, header=False)
+    messages = []
+    for read in (lambda: tm.read_table(path, cmap), lambda: _careful(monkeypatch, lambda: tm.read_table(path, cmap))):
+        with pytest.raises(tm.MeasurementError) as exc:
+            read()
+        messages.append(str(exc.value))
+    assert messages[0] == messages[1] and "(7 s then 0 s)" in messages[0]

@@ -100,7 +100,7 @@ def check(m: Measurement, where: str) -> None:
         if np.any(d <= 0):
             k = int(np.flatnonzero(d <= 0)[0])
             raise MeasurementError(f"{where}: time is not increasing at row {k + 2} of run {r} "
-                                   f"({t[k]:g} s then {t[k + 1]:g} s); check time_unit or sort the file")
+                                   f"({t[k] + 0.0:g} s then {t[k + 1] + 0.0:g} s); check time_unit or sort the file")
         med = np.median(d, overwrite_input=True) if d.size else 1.0  # partitions d: recomputed below,
         d = None  # so a long log holds one difference array at a time, not two
         d = np.diff(t)

@@ -348,7 +348,7 @@ def check_increasing(t: np.ndarray, path: Path, first_line: int, keep: np.ndarra
     if d.size and not (d > 0).all():
         k = int(np.flatnonzero(~(d > 0))[0]) + 1
         row = int(np.flatnonzero(keep)[k]) if keep is not None else k
-        raise MeasurementError(f"{path}:{row + first_line}: time {t[k]:g} s does not follow {t[k - 1]:g} s; expected "
+        raise MeasurementError(f"{path}:{row + first_line}: time {t[k] + 0.0:g} s does not follow {t[k - 1] + 0.0:g} s; expected "
                                "strictly increasing time (one orientation per instant; check time_unit or sort the file)")
 
 
