@@ -144,26 +144,13 @@ READERS = {
 }
 
 
-def play_scan_reference(x: np.ndarray, r: float) -> np.ndarray:
-    """The play operator as it was before issue 15: a log-step prefix scan of composed clamps."""
-    x = np.asarray(x, float)
-    lo, hi = x - r, x + r
-    shift = 1
-    while shift < x.size:
-        l_lo, l_hi = lo[shift:], hi[shift:]
-        new_lo = np.minimum(np.maximum(lo[:-shift], l_lo), l_hi)
-        hi[shift:] = np.minimum(np.maximum(hi[:-shift], l_lo), l_hi)
-        lo[shift:] = new_lo
-        shift *= 2
-    return np.minimum(np.maximum(x[0], lo), hi)
-
-
 PLAY_COLD = ("import time, numpy as np; t = time.perf_counter(); from sim.drift import play_operator; "
              "play_operator(np.zeros(300_000), 1.0); print(time.perf_counter() - t)")
 
 
 def play_benchmark(n: int) -> dict:
-    from sim.drift import play_operator
+    # the prefix scan is what play_operator ran before issue 15 (and still runs without numba)
+    from sim.drift import play_operator, play_operator_scan
 
     x = np.cumsum(np.random.default_rng(0).normal(size=n)) * 0.01  # a random walk: many reversals
     cold = {}
@@ -175,7 +162,7 @@ def play_benchmark(n: int) -> dict:
             cold[label] = float(r.stdout.strip())
     play_operator(x[:300_000], 2.0)
     t0 = time.perf_counter()
-    ref = play_scan_reference(x, 2.0)
+    ref = play_operator_scan(x, 2.0)
     t_scan = time.perf_counter() - t0
     warm = []
     for _ in range(5):
