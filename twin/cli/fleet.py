@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from twin.cli.common import JsonOpt, app, emit_json, guard
+from twin.cli.common import JsonOpt, app, check_outputs, emit_json, guard
 
 
 @app.command()
@@ -26,6 +26,7 @@ def fleet(
     skips finished units; a unit whose log is bad is recorded with its error and the others go on."""
     from tqdm import tqdm
 
+    from twin.fleet.ledger import FOLDER_OUTPUTS
     from twin.fleet.population import population, write_population, write_table
     from twin.fleet.runner import run_fleet
     from twin.fleet.spec import load_fleet_spec
@@ -38,6 +39,9 @@ def fleet(
         inputs = {Path(f).resolve() for u in fs.units for f in u.files}
         if output.resolve() in inputs or any(output.resolve() in p.parents for p in inputs):
             raise_twin(f"{output}: the output folder holds the fleet's logs; choose another folder")
+        # --json checked now, not after every unit ran: never over an input or the fleet's own files
+        own = [output / name for name in ("units.jsonl", ".lock", *FOLDER_OUTPUTS)]
+        check_outputs([*inputs, spec, fs.scenario, *own], [None if json_out == "-" else json_out])
         with tqdm(total=len(fs.units), desc="units", unit="unit", file=sys.stderr, disable=None) as bar:
             run = run_fleet(fs, output, workers, executor, scheduler, progress=lambda r: bar.update(1))
         pop = population(run.records, fs.outlier_threshold)
@@ -83,7 +87,15 @@ def fleet_simulate(
     from twin.fleet.simulate import load_fleet_scenario, simulate_fleet
 
     with guard(inputs=[fleet_scenario], outputs=[]):
-        n = load_fleet_scenario(fleet_scenario).units
+        fs = load_fleet_scenario(fleet_scenario)
+        n = fs.units
+        written = [output / "fleet.yaml", output / "truth.json"]
+        # what it writes is checked before any unit runs: never over the fleet scenario or its base
+        check_outputs([fleet_scenario, fs.base_path], written + [None if json_out == "-" else json_out])
+        check_outputs([*written, output / "logs"], [None if json_out == "-" else json_out])
+        logs = (output / "logs").resolve()
+        if any(logs in Path(p).resolve().parents for p in (fleet_scenario, fs.base_path)):
+            raise_twin(f"{output}: its logs/ folder holds the fleet scenario or its base; choose another folder")
         with tqdm(total=n, desc="units", unit="unit", file=sys.stderr, disable=None) as bar:
             result = simulate_fleet(fleet_scenario, output, workers, progress=lambda: bar.update(1))
     if json_out != "-":

@@ -18,7 +18,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from twin.fleet.ledger import LEDGER, append_record, exclusive, open_ledger
+from twin.fleet.ledger import LEDGER, append_record, exclusive, open_ledger, read_ledger
 from twin.fleet.spec import FleetError, FleetSpec
 from twin.fleet.units import evaluate_unit
 
@@ -96,6 +96,20 @@ def run_fleet(spec: FleetSpec, out_dir: Path, workers: int = 1, executor: str = 
     if executor not in ("local", "dask"):
         raise FleetError(f"--executor must be 'local' or 'dask', got {executor!r}")
     out_dir = Path(out_dir)
+    if out_dir.is_dir():  # a foreign folder is refused before the lock file is made in it
+        read_ledger(out_dir / LEDGER)
+    # a named scheduler is reached first: one that does not answer leaves no folder behind
+    client = dask_client(scheduler, workers, connect_timeout_s, dask_processes) \
+        if executor == "dask" and scheduler is not None else None
+    try:
+        return _run(spec, out_dir, workers, executor, scheduler, progress, connect_timeout_s, dask_processes, client)
+    finally:
+        if client is not None:
+            client.close()
+
+
+def _run(spec, out_dir, workers, executor, scheduler, progress, connect_timeout_s, dask_processes, client) -> FleetRun:
+    """:func:`run_fleet` once the output folder is known usable (``client``: a connected scheduler)."""
     with exclusive(out_dir):
         state = open_ledger(out_dir)
         log = out_dir / LEDGER
@@ -109,16 +123,18 @@ def run_fleet(spec: FleetSpec, out_dir: Path, workers: int = 1, executor: str = 
         if jobs and executor == "dask":
             from dask.distributed import as_completed
 
-            client = dask_client(scheduler, workers, connect_timeout_s, dask_processes)
+            own = client is None
+            client = client or dask_client(scheduler, workers, connect_timeout_s, dask_processes)
             try:
                 futures = [client.submit(evaluate_unit, j, settings, where, pure=False) for j in jobs]
                 for fut in as_completed(futures):
                     _record(log, fut.result(), done, tick)
             finally:
-                cluster = client.cluster
-                client.close()
-                if cluster is not None:
-                    cluster.close()
+                if own:  # a local cluster started here ends here; a named scheduler is closed by run_fleet
+                    cluster = client.cluster
+                    client.close()
+                    if cluster is not None:
+                        cluster.close()
         elif jobs and workers > 1:
             from concurrent.futures import ProcessPoolExecutor, as_completed
 

@@ -11,15 +11,18 @@ from __future__ import annotations
 
 import copy
 import json
+import math
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import yaml
 
+from twin.errors import TwinError
 from twin.fleet.spec import FleetError
-from twin.io import atomic_write_text
+from twin.io import atomic_write_text, read_text
 from twin.text import did_you_mean, load_yaml_mapping
 
 KEYS = ("name", "description", "base", "units", "seed", "id_prefix", "draw", "logger_rate_hz", "vary", "effects")
@@ -47,18 +50,31 @@ class FleetScenario:
 
 
 def _check_distribution(spec, where: str) -> None:
+    if isinstance(spec, (int, float)) and not isinstance(spec, bool) and not math.isfinite(spec):
+        raise FleetError(f"{where}: got {spec!r}, expected a finite number")
     if isinstance(spec, (int, float, str)) and not isinstance(spec, bool):
         return
     if not (isinstance(spec, dict) and len(spec) == 1 and next(iter(spec)) in DISTRIBUTIONS):
         raise FleetError(f"{where}: expected a number or one of {{{', '.join(DISTRIBUTIONS)}: [...]}}, got {spec!r}")
     kind, args = next(iter(spec.items()))
     if kind != "choice" and not (isinstance(args, list) and len(args) == 2
-                                 and all(isinstance(a, (int, float)) for a in args)):
-        raise FleetError(f"{where}: {kind} takes two numbers, got {args!r}")
+                                 and all(isinstance(a, (int, float)) and not isinstance(a, bool)
+                                         and math.isfinite(a) and abs(a) <= 1e300 for a in args)):
+        raise FleetError(f"{where}: {kind} takes two finite numbers, got {args!r}")
     if kind in ("uniform", "loguniform") and not args[0] <= args[1] or kind == "loguniform" and args[0] <= 0:
         raise FleetError(f"{where}: {kind} needs 0 < low <= high (loguniform) or low <= high, got {args}")
+    if kind == "normal" and args[1] < 0:
+        raise FleetError(f"{where}: normal takes [mean, standard deviation >= 0], got {args}")
     if kind == "choice" and not (isinstance(args, list) and args):
         raise FleetError(f"{where}: choice takes a non-empty list")
+
+
+def _mapping(data: dict, key: str, where: str) -> dict:
+    """``data[key]`` when it is a mapping (or absent: empty); else one line naming the key."""
+    value = data.get(key) or {}
+    if not isinstance(value, dict):
+        raise FleetError(f"{where}: {key}: expected a mapping, got {type(value).__name__}")
+    return value
 
 
 def draw_value(spec, rng: np.random.Generator):
@@ -78,9 +94,8 @@ def draw_value(spec, rng: np.random.Generator):
 def load_fleet_scenario(path: str | Path) -> FleetScenario:
     """Read and check a fleet scenario (one-line errors naming the file, line and key)."""
     path = Path(path)
-    if not path.is_file():
-        raise FleetError(f"{path}: fleet scenario not found")
-    data, lines = load_yaml_mapping(path.read_text(encoding="utf-8"), str(path), "a fleet scenario is a YAML mapping")
+    data, lines = load_yaml_mapping(read_text(path, "fleet scenario", FleetError), str(path),
+                                    "a fleet scenario is a YAML mapping")
     at = lambda *key: f"{path}:{lines.get(tuple(key), lines.get(key[:1], 1))}"  # noqa: E731
     for key in data:
         if key not in KEYS:
@@ -91,8 +106,9 @@ def load_fleet_scenario(path: str | Path) -> FleetScenario:
     n = data["units"]
     if not isinstance(n, int) or isinstance(n, bool) or not 1 <= n <= 100_000:
         raise FleetError(f"{at('units')}: units must be an integer in 1..100000, got {n!r}")
+    _check_plain(data, at)
     base_path = path.parent / str(data["base"])
-    if not base_path.is_file():
+    if not isinstance(data["base"], str) or not base_path.is_file():
         raise FleetError(f"{at('base')}: base scenario {base_path} not found")
     from twin.model.scenario import load_scenario
 
@@ -100,13 +116,15 @@ def load_fleet_scenario(path: str | Path) -> FleetScenario:
     base = yaml.safe_load(base_path.read_text(encoding="utf-8"))
     if data.get("draw", "exclusive") not in ("exclusive", "independent"):
         raise FleetError(f"{at('draw')}: draw must be 'exclusive' (at most one effect per unit) or 'independent'")
-    vary = data.get("vary") or {}
+    vary = _mapping(data, "vary", at("vary"))
     for k, spec in vary.items():
         _check_distribution(spec, f"{at('vary', k)}: vary.{k}")
-    effects = data.get("effects") or {}
+    effects = _mapping(data, "effects", at("effects"))
     for name, e in effects.items():
         if not isinstance(e, dict):
             raise FleetError(f"{at('effects', name)}: effects.{name} is a mapping (prevalence, set, draw)")
+        for key in ("set", "draw"):
+            _mapping(e, key, f"{at('effects', name, key)}: effects.{name}")
         for key in e:
             if key not in EFFECT_KEYS:
                 raise FleetError(f"{at('effects', name, key)}: unknown key {key!r} in effects.{name}"
@@ -119,10 +137,56 @@ def load_fleet_scenario(path: str | Path) -> FleetScenario:
     exclusive = data.get("draw", "exclusive") == "exclusive"
     if exclusive and sum(e["prevalence"] for e in effects.values()) > 1 + 1e-12:
         raise FleetError(f"{at('effects')}: with draw: exclusive the prevalences must sum to at most 1")
-    fs = FleetScenario(base, str(base_path.resolve()), n, int(data.get("seed", 0)), str(data.get("id_prefix", "unit")),
+    fs = FleetScenario(base, str(base_path.resolve()), n, data.get("seed", 0), data.get("id_prefix", "unit"),
                        exclusive, data.get("logger_rate_hz"), vary, effects, str(data.get("name", path.stem)))
     unit_scenario(fs, 0)  # every path set or drawn must give a valid scenario: checked on unit 0
+    _probe_ends(fs, at)
     return fs
+
+
+# unit ids name the log files logs/<id>.csv: a plain prefix, never a path
+_PREFIX = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9_.-]{0,63}|")
+
+
+def _check_plain(data: dict, at) -> None:
+    """The scalar keys: seed, id_prefix, name, description, logger_rate_hz (types and ranges)."""
+    seed = data.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= 2**63 - 1:
+        raise FleetError(f"{at('seed')}: seed: got {seed!r}, expected an integer in 0..2**63-1")
+    prefix = data.get("id_prefix", "unit")
+    if not isinstance(prefix, str) or not _PREFIX.fullmatch(prefix):
+        raise FleetError(f"{at('id_prefix')}: id_prefix: got {prefix!r}, expected up to 64 letters, digits, '_', "
+                         "'-' or '.' (not first): it names the unit's log file")
+    for key in ("name", "description"):
+        if not isinstance(data.get(key, ""), str):
+            raise FleetError(f"{at(key)}: {key}: expected text, got {type(data[key]).__name__}")
+    rate = data.get("logger_rate_hz")
+    if rate is not None and (isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 < rate < math.inf):
+        raise FleetError(f"{at('logger_rate_hz')}: logger_rate_hz: got {rate!r}, expected a finite rate > 0 [Hz]")
+
+
+def _probe_ends(fs: FleetScenario, at) -> None:
+    """Each end of a uniform / loguniform draw and each choice, put into unit 0, gives a valid
+    scenario: a bad value is refused now, not found by whichever unit draws it mid-run."""
+    from twin.model.scenario import parse_scenario
+    from twin.studies.design import set_path
+
+    unit0, _ = draw_unit(fs, 0)
+    groups = [(("vary",), {}, fs.vary)] + [(("effects", n, "draw"), e.get("set") or {}, e.get("draw") or {})
+                                          for n, e in fs.effects.items()]
+    for loc, fixed, draws in groups:
+        for key, spec in draws.items():
+            kind, args = next(iter(spec.items())) if isinstance(spec, dict) else ("normal", [])
+            for value in (args[:100] if kind != "normal" else []):
+                data = copy.deepcopy(unit0)
+                for k, v in {**fixed, key: value}.items():
+                    set_path(data, k, v)
+                try:
+                    parse_scenario(yaml.safe_dump(data, sort_keys=False), "<unit>")
+                except TwinError as exc:
+                    detail = str(exc).split(": ", 1)[-1]
+                    raise FleetError(f"{at(*loc, key)}: {'.'.join(loc)}.{key}: {kind} value {value!r} gives an "
+                                     f"invalid unit: {detail}") from None
 
 
 def family_of(name: str, entry: dict) -> str:

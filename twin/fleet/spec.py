@@ -4,6 +4,7 @@ unit ids to files); several files of one unit are runs of that unit."""
 from __future__ import annotations
 
 import glob as globlib
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -23,6 +24,17 @@ DEFAULTS = {"with_effects": [], "average_s": 10.0, "applied_g": 1.0, "skip_bad_r
 
 class FleetError(TwinError):
     """A fleet file, its units or its output folder is not usable."""
+
+
+def check_unit_id(uid, where: str) -> str:
+    """``uid`` as a string, or :class:`FleetError` when it could name a path outside ``units/``."""
+    text = str(uid)
+    # the id names the unit's folder units/<id>: one plain path component, never '..' or hidden
+    if isinstance(uid, bool) or uid is None or not 0 < len(text) <= 128 or text.startswith(".") \
+            or any(c in text for c in "/\\\0"):
+        raise FleetError(f"{where}: unit id {uid!r}: expected a name of 1-128 characters without '/', '\\' or a "
+                         "leading '.' (it names the unit's folder)")
+    return text
 
 
 @dataclass
@@ -69,7 +81,10 @@ def discover_units(pattern, base: Path, where: str) -> list[Unit]:
             found = sorted({m for p in pats for m in globlib.glob(str(base / p))})
             if not found:
                 raise FleetError(f"{where}: units.{uid}: no file matches {', '.join(pats)}")
-            units.append(Unit(str(uid), found))
+            folders = [m for m in found if Path(m).is_dir()]
+            if folders:
+                raise FleetError(f"{where}: units.{uid}: {folders[0]} is a folder; expected log files")
+            units.append(Unit(check_unit_id(uid, where), found))
     elif isinstance(pattern, str):
         target = base / pattern
         matches = [target / p.name for p in sorted(target.iterdir())] if target.is_dir() else \
@@ -109,7 +124,9 @@ def load_fleet_spec(spec: str | Path, scenario: str | Path | None = None, comman
     if path.suffix in (".yaml", ".yml") and not path.is_file() and not any(c in str(spec) for c in "*?["):
         raise FleetError(f"{path}: fleet file not found")
     if path.is_file() and path.suffix in (".yaml", ".yml"):
-        text = path.read_text(encoding="utf-8")
+        from twin.io import read_text
+
+        text = read_text(path, "fleet file", FleetError)
         data, lines = load_yaml_mapping(text, str(path), "a fleet file is a YAML mapping")
         where = lambda key: f"{path}:{lines.get((key,), 1)}"  # noqa: E731
         for key in data:
@@ -117,6 +134,9 @@ def load_fleet_spec(spec: str | Path, scenario: str | Path | None = None, comman
                 raise FleetError(f"{where(key)}: unknown key {key!r}{did_you_mean(key, TOP_KEYS, label='valid keys')}")
         base = path.parent
         cmd = command or data.get("command", "compare")
+        if scenario is None and not isinstance(data.get("scenario", ""), (str, type(None))):
+            raise FleetError(f"{where('scenario')}: scenario: expected the path of the twin's scenario file, "
+                             f"got {data['scenario']!r}")
         scn = scenario if scenario is not None else (str(base / data["scenario"]) if data.get("scenario") else None)
         if "units" not in data:
             raise FleetError(f"{path}: missing key 'units' (a glob, a folder, or unit id → files)")
@@ -124,8 +144,9 @@ def load_fleet_spec(spec: str | Path, scenario: str | Path | None = None, comman
         columns, options = data.get("columns") or {}, data.get("options") or {}
         name, source = str(data.get("name", path.stem)), str(path)
         threshold = data.get("outlier_threshold", 3.5)
-        if not isinstance(threshold, (int, float)) or threshold <= 0:
-            raise FleetError(f"{where('outlier_threshold')}: outlier_threshold must be a positive number")
+        if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) or not 0 < threshold < math.inf:
+            raise FleetError(f"{where('outlier_threshold')}: outlier_threshold: got {threshold!r}, expected a finite "
+                             "number > 0 (a robust z, e.g. 3.5)")
     else:
         where = lambda key: str(spec)  # noqa: E731
         cmd, scn, columns, options, name, source, threshold = command or "compare", scenario, {}, {}, "", str(spec), 3.5
@@ -143,14 +164,14 @@ def load_fleet_spec(spec: str | Path, scenario: str | Path | None = None, comman
                              f"{did_you_mean(key, OPTIONS[cmd], label='valid options')}")
         if isinstance(value, bool) and OPTIONS[cmd][key] is not bool or not isinstance(value, OPTIONS[cmd][key]):
             raise FleetError(f"{where('options')}: options.{key}: wrong type {type(value).__name__}")
-    if isinstance(options.get("applied_g"), str) and options["applied_g"] != "unknown":
-        raise FleetError(f"{where('options')}: options.applied_g is a number in g or 'unknown', got {options['applied_g']!r}")
+    _check_option_values(options, where("options"))
     if cmd == "compare":
         if scn is None:
             raise FleetError(f"{where('scenario')}: compare needs the twin's scenario (key 'scenario' or --scenario)")
         if not Path(scn).is_file():
             raise FleetError(f"{where('scenario')}: scenario file {scn} not found")
         scn = str(Path(scn).resolve())
+        _check_twin(scn, options.get("with_effects", []), where("options"))
     return FleetSpec(units, cmd, scn, columns, options, name, source, float(threshold))
 
 
@@ -161,3 +182,35 @@ def _check_columns(columns: dict, where: str) -> None:
     for key in columns:
         if key not in known:
             raise FleetError(f"{where}: unknown column-map key {key!r}{did_you_mean(key, known, label='valid keys')}")
+    try:  # every value checked once here, not failed identically by every unit
+        ColumnMap(**columns).validate(f"{where}: columns")
+    except TwinError as exc:
+        raise FleetError(str(exc)) from None
+
+
+def _check_option_values(options: dict, where: str) -> None:
+    """The ranges of the options' values (their types are checked against :data:`OPTIONS`)."""
+    average = options.get("average_s", 10.0)
+    if not 0.1 <= average <= 1e7:
+        raise FleetError(f"{where}: options.average_s: got {average!r}, expected a block average in 0.1..1e7 s")
+    applied = options.get("applied_g", 1.0)
+    if isinstance(applied, str) and applied != "unknown" or not isinstance(applied, str) and not math.isfinite(applied):
+        raise FleetError(f"{where}: options.applied_g: got {applied!r}, expected a finite number in g or 'unknown'")
+    if not all(isinstance(e, str) for e in options.get("with_effects", [])):
+        raise FleetError(f"{where}: options.with_effects: expected a list of effect names, got {options['with_effects']!r}")
+    imu = options.get("imu", "all")
+    if isinstance(imu, str) and imu != "all" or isinstance(imu, int) and not 0 <= imu < 256:
+        raise FleetError(f"{where}: options.imu: got {imu!r}, expected 'all' or an IMU instance 0..255")
+
+
+def _check_twin(scenario: str, with_effects: list, where: str) -> None:
+    """The twin's scenario loads (its plugins too) and every added effect exists: one line now,
+    instead of the same error recorded by every unit."""
+    from twin.effects import REGISTRY
+    from twin.model.scenario import load_scenario
+
+    load_scenario(Path(scenario))
+    for name in with_effects:
+        if name not in REGISTRY:
+            raise FleetError(f"{where}: options.with_effects: unknown effect {name!r}"
+                             f"{did_you_mean(name, REGISTRY, label='registered effects')}")
