@@ -8,6 +8,7 @@ to a log, the same arithmetic ``twin apply`` and the round-trip tests use.
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -43,7 +44,67 @@ def read_calibration(path: str | Path) -> dict:
         raise CalibrationDocumentError(f"{path}: not a '{SCHEMA}' document of schema_version {SCHEMA_VERSION}")
     if not doc.get("imus"):
         raise CalibrationDocumentError(f"{path}: key 'imus' is empty; expected at least one calibrated IMU")
+    check_document(doc, str(path))
     return doc
+
+
+def _finite(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and bool(np.isfinite(value))
+
+
+def check_document(doc: dict, path: str) -> None:
+    """Every IMU entry has what the exporters and ``twin apply`` read, and every method's correction
+    is finite over the calibrated span (an edited or corrupted document is one line, not a crash
+    or a firmware file of NaN).
+
+    Raises
+    ------
+    CalibrationDocumentError
+        ``path: imus[k].key: what was found, expected what``.
+    """
+    imus = doc["imus"]
+    if not isinstance(imus, list) or not all(isinstance(e, dict) for e in imus):
+        raise CalibrationDocumentError(f"{path}: imus: got {type(imus).__name__}, expected a list of IMU entries")
+    if not isinstance(doc.get("inputs"), list) or not isinstance(doc.get("software_version"), str):
+        raise CalibrationDocumentError(f"{path}: inputs / software_version missing; expected what twin calibrate wrote")
+    for k, e in enumerate(imus):
+        at = f"{path}: imus[{k}]"
+        inst, dev, span, rate = (e.get(key) for key in ("instance", "device_id", "temperature_span_c", "sample_rate_hz"))
+        if isinstance(inst, bool) or not isinstance(inst, int) or not 0 <= inst < 256:
+            raise CalibrationDocumentError(f"{at}.instance: got {inst!r}, expected an IMU instance 0..255")
+        if isinstance(e.get("samples"), bool) or not isinstance(e.get("samples"), int) or e["samples"] < 0:
+            raise CalibrationDocumentError(f"{at}.samples: got {e.get('samples')!r}, expected a whole number >= 0")
+        if dev is not None and (isinstance(dev, bool) or not isinstance(dev, int)):
+            raise CalibrationDocumentError(f"{at}.device_id: got {dev!r}, expected an integer or null")
+        if not (isinstance(span, list) and len(span) == 2 and all(_finite(v) for v in span) and span[0] <= span[1]):
+            raise CalibrationDocumentError(f"{at}.temperature_span_c: got {span!r}, expected [low, high] in °C, finite")
+        if not (_finite(rate) and 0 < rate < 1e6):
+            raise CalibrationDocumentError(f"{at}.sample_rate_hz: got {rate!r}, expected a finite rate > 0 [Hz]")
+        methods, rec, val = e.get("methods"), e.get("recommended"), e.get("validation")
+        if not (isinstance(methods, dict) and methods and all(isinstance(m, dict) for m in methods.values())):
+            raise CalibrationDocumentError(f"{at}.methods: expected a mapping of method names to fitted methods")
+        if not (isinstance(rec, dict) and all(isinstance(v, str) for v in rec.values())):
+            raise CalibrationDocumentError(f"{at}.recommended: expected a mapping of targets to method names")
+        if not (isinstance(val, dict) and isinstance(val.get("heldout_rms_mg"), dict)):
+            raise CalibrationDocumentError(f"{at}.validation: expected the held-out RMS per method")
+        temperature_c, time_s = np.linspace(span[0], span[1], 16), np.arange(16.0)
+        for name, data in methods.items():
+            level = data.get("level_g", [0.0, 0.0, 0.0])
+            taus = [t for key in ("tau_die_s", "tau_rate_s") for t in (data.get(key) or [])]
+            if not all(t is None or _finite(t) and 0 <= t <= 1e7 for t in taus):
+                raise CalibrationDocumentError(f"{at}.methods.{name}: time constants {taus}; expected each null or a "
+                                               "finite number of seconds in 0..1e7")
+            try:  # the arithmetic every consumer runs, on the calibrated span (its warnings are this line's)
+                with warnings.catch_warnings(), np.errstate(all="ignore"):
+                    warnings.simplefilter("ignore")
+                    corr = correction_g(data, time_s, temperature_c)
+            except (KeyError, TypeError, ValueError, IndexError, TwinError) as exc:
+                raise CalibrationDocumentError(f"{at}.methods.{name}: malformed ({type(exc).__name__}: "
+                                               f"{' '.join(str(exc).split())[:160]}); expected what twin calibrate wrote") from None
+            if corr.shape != (16, 3) or not np.all(np.isfinite(corr)) or not (
+                    isinstance(level, list) and len(level) == 3 and all(_finite(v) for v in level)):
+                raise CalibrationDocumentError(f"{at}.methods.{name}: not finite over {span[0]:g}..{span[1]:g} °C; "
+                                               "expected finite coefficients, levels and time constants")
 
 
 def imu_entry(doc: dict, instance: int | None, device_id: int | None = None, source: str = "calibration") -> dict:

@@ -9,7 +9,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from twin.cli.common import JsonOpt, app, column_map, emit_json, guard, parse_axes
+from twin.cli.common import JsonOpt, app, check_outputs, column_map, emit_json, guard, parse_axes
 from twin.errors import TwinError
 
 AXES_HELP = "axes to calibrate, comma-separated (default x,y,z)"
@@ -84,6 +84,10 @@ def calibrate(
         chosen = parse_axes(axes)
         if report is not None and report.exists() and not report.is_dir():
             raise TwinError(f"{report}: exists and is not a folder; --report expects a folder to write into")
+        if report is not None:  # checked before the calibration is written, not after
+            if report.resolve() in {p.resolve() for p in _outputs(output, json_out)}:
+                raise TwinError(f"{report}: --report names a file another output writes; expected a folder of its own")
+            check_outputs(logs, [report / "report.html"])
         cmap = column_map(columns, time=time_col, temperature=temperature_col, x=x_col, y=y_col, z=z_col,
                           time_unit=time_unit, output_unit=output_unit)
         per = imu_logs_by_instance(logs, cmap, imu)
