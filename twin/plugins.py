@@ -22,6 +22,10 @@ def import_plugin(spec: str, base_dir: str | Path = ".", error: type[TwinError] 
     A file is imported once per resolved path; a failure while it loads is reported as ``error``
     with the exception's type and message, in one line, and leaves nothing in ``sys.modules``.
     """
+    given = Path(spec) if Path(spec).is_absolute() else Path(base_dir) / spec
+    if not spec.endswith(".py") and ("/" in spec or given.exists()):  # a path, but not to a .py file
+        what = "a folder" if given.is_dir() else "not a .py file" if given.exists() else "not found"
+        raise error(f"plugin {spec}: {what}; expected a .py file or a module name")
     if not spec.endswith(".py"):
         try:
             return importlib.import_module(spec)
@@ -34,7 +38,7 @@ def import_plugin(spec: str, base_dir: str | Path = ".", error: type[TwinError] 
     path = Path(spec)
     path = path if path.is_absolute() else Path(base_dir) / path
     if not path.is_file():
-        raise error(f"plugin file not found: {path}")
+        raise error(f"plugin {path}: is a folder; expected a .py file" if path.is_dir() else f"plugin file not found: {path}")
     mod_name = f"twin_plugin_{path.stem}_{abs(hash(str(path.resolve()))) % 10**8}"
     if mod_name in sys.modules:
         return sys.modules[mod_name]

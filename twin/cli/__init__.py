@@ -48,28 +48,60 @@ def _internal_error(exc: BaseException) -> None:
     sys.exit(1)
 
 
+_SIGINTS: list[int] = []
+
+
+def _on_sigint(signum, frame) -> None:
+    """Ctrl-C as usual (KeyboardInterrupt), remembered: a library that turns it into another
+    error (an extension module's import fails with ImportError) still ends as 'interrupted'."""
+    _SIGINTS.append(signum)
+    signal.default_int_handler(signum, frame)
+
+
+def _interrupted() -> None:
+    typer.echo("twin: interrupted", err=True)
+    sys.exit(130)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console entry point: usage errors and our errors exit 2 with one line."""
+    _SIGINTS.clear()
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is signal.default_int_handler:
+        try:
+            signal.signal(signal.SIGINT, _on_sigint)
+        except ValueError:  # not the main thread: leave Ctrl-C alone
+            previous = None
+    try:
+        _main(argv)
+    finally:
+        if previous is signal.default_int_handler:
+            signal.signal(signal.SIGINT, previous)
+
+
+def _main(argv: list[str] | None) -> None:
+    """The command, with every way it can end turned into an exit status and at most one line."""
     if hasattr(signal, "SIGXFSZ"):  # a file-size limit: a write then fails with EFBIG (one line), not a kill
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
         code = app(args=argv, standalone_mode=False)  # returns a command's exit code (typer.Exit)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
-    except typer.Abort:
-        typer.echo("twin: interrupted", err=True)
-        sys.exit(130)
-    except KeyboardInterrupt:
-        typer.echo("twin: interrupted", err=True)
-        sys.exit(130)
+    except (typer.Abort, KeyboardInterrupt):
+        _interrupted()
     except TyperException as exc:  # usage: missing argument, unknown option, bad value: one line
         ctx = getattr(exc, "ctx", None)
         hint = f" (see 'twin {ctx.info_name} --help')" if ctx is not None and ctx.parent is not None else ""
-        typer.echo(f"twin: error: {' '.join(exc.format_message().split())}{hint}", err=True)
+        message = " ".join(exc.format_message().split()) or "missing command (see 'twin --help')"
+        typer.echo(f"twin: error: {message}{hint}", err=True)
         sys.exit(2)
     except MemoryError:
         typer.echo("twin: error: out of memory; shorten the run or lower its sample rate", err=True)
         sys.exit(2)
     except Exception as exc:  # noqa: BLE001  (the last line of defence: never a bare traceback)
+        if _SIGINTS:
+            _interrupted()
         _internal_error(exc)
+    if code == 130:  # Ctrl-C inside a command: click swallows it into this code, say so in one line
+        _interrupted()
     sys.exit(code if isinstance(code, int) else 0)

@@ -7,6 +7,7 @@ exits with status 2 and one line naming what and where, never a traceback.
 from __future__ import annotations
 
 import json
+import os
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -66,6 +67,28 @@ def check_outputs(inputs, outputs) -> None:
         blocked = next((p for p in out.parents if p.exists() and not p.is_dir()), None)
         if blocked is not None:  # found now, before anything is written
             raise TwinError(f"{out}: {blocked} is a file, not a folder; expected a path in a folder")
+        _check_writable(out)
+    named = [Path(p).resolve() for p in outputs if p is not None and str(p) != "-"]
+    twice = next((p for i, p in enumerate(named) if p in named[:i]), None)
+    if twice is not None:  # the second write would replace the first
+        raise TwinError(f"{twice}: two outputs name one file (e.g. --json and -o name the same file); "
+                        "choose a path for each")
+
+
+def _check_writable(out: Path) -> None:
+    """Create and remove a probe file in the nearest existing folder of ``out`` (a read-only folder,
+    /proc or a full quota is found before the work, not after it)."""
+    import tempfile
+
+    folder = next((p for p in out.parents if p.exists()), None)
+    if folder is None:
+        return
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".twin-probe-", dir=folder)
+    except OSError as exc:
+        raise TwinError(f"{out}: cannot write in {folder}: {exc.strerror or exc}; expected a writable folder") from None
+    os.close(fd)
+    os.unlink(probe)
 
 
 @contextmanager

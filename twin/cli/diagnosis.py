@@ -37,7 +37,7 @@ def compare(
     no_header: Annotated[bool, typer.Option("--no-header", help="the file has no header line (columns by index)")] = False,
     sample_rate_hz: Annotated[Optional[float], typer.Option(help="sample rate for logs without a time column [Hz]")] = None,
     skip_bad_rows: Annotated[bool, typer.Option("--skip-bad-rows", help="skip corrupted rows and report how many")] = False,
-    average_s: Annotated[float, typer.Option(min=0.1, help="screening block average [s]")] = 10.0,
+    average_s: Annotated[float, typer.Option(min=0.1, max=1e7, help="screening block average [s]")] = 10.0,
     discover: Annotated[bool, typer.Option("--discover", help="when the library leaves structure, search a dictionary of terms for the missing one and write it as a plugin")] = False,
     discover_plugin: Annotated[Optional[Path], typer.Option("--discover-plugin", help="with --discover: write the discovered effect here (default: REPORT/discovered_effect.py)")] = None,
     plugin: Annotated[Optional[list[str]], typer.Option("--plugin", help="effect module (.py path or module name) to load and add to the twin; runs its code")] = None,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 import sys
@@ -181,6 +182,9 @@ def render(
             raise ValueError(f"-o {output}: a single image is written as .png (use --sweep for .gif/.mp4)")
         if sweep is not None and suffix not in (".gif", ".mp4"):
             raise ValueError(f"-o {output}: a sweep is written as .gif or .mp4")
+        if suffix == ".mp4" and not any(importlib.util.find_spec(m) for m in ("imageio_ffmpeg", "av")):
+            raise ValueError(f"-o {output}: writing MP4 needs imageio-ffmpeg (pip install 'imageio[ffmpeg]'); "
+                             "expected a .gif here")
         from twin.reporting import render as rd
 
         temps = rd.parse_sweep(sweep) if sweep is not None else None
@@ -270,6 +274,7 @@ def parts(part: Annotated[Optional[list[str]], typer.Argument(help="part names o
     from twin.parts import PARTS, load_part, table_lines
 
     try:
+        check_outputs([p for p in part or [] if Path(p).exists()], [None if json_out == "-" else json_out])
         chosen = [load_part(p) for p in part] if part else list(PARTS.values())
     except TwinError as exc:
         fail(str(exc))

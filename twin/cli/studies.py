@@ -80,7 +80,9 @@ def doe(
         fail(f"--executor must be 'local' or 'dask', got {executor!r}")
     try:
         st, base, folder = load_study(study)
-        check_outputs([study, folder / st.base], [None if json_out == "-" else json_out])
+        own = [output / n for n in ("runs.jsonl", "table.csv", "table.h5", "analysis.json", "main_effects.png",
+                                     "response_surface.png", "sobol.png")]
+        check_outputs([study, folder / st.base, *own], [None if json_out == "-" else json_out])
         if output.resolve() in (study.resolve(), (folder / st.base).resolve()):
             raise TwinError(f"-o {output}: the output folder would overwrite an input; choose another path")
         total = len(plan(st, base))

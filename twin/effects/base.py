@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from twin.arrays import run_slices
-from twin.errors import ModelError
+from twin.errors import ModelError, TwinError
 from twin.text import did_you_mean
 
 
@@ -225,13 +225,51 @@ REGISTRY: dict[str, type[Effect]] = {}
 def register(cls: type[Effect]) -> type[Effect]:
     """Class decorator: add an effect to the registry under its ``name``."""
     for attr in ("name", "family"):
-        if not isinstance(getattr(cls, attr, None), str):
-            raise ModelError(f"effect class {cls.__name__} needs a string {attr!r}")
+        if not isinstance(getattr(cls, attr, None), str) or not getattr(cls, attr).strip():
+            raise ModelError(f"effect class {cls.__name__} needs a non-empty string {attr!r}")
     existing = REGISTRY.get(cls.name)
     if existing is not None and (existing.__module__, existing.__qualname__) != (cls.__module__, cls.__qualname__):
         raise ModelError(f"an effect named {cls.name!r} is already registered (by {existing.__module__})")
+    if cls.__module__.split(".")[0] != "twin":
+        _check_basis_of(cls)
     REGISTRY[cls.name] = cls
     return cls
+
+
+BASIS_LIMIT = 1e6  # |bias [g]| or |scale factor| per unit amplitude: far beyond any real effect
+
+
+def _check_basis_of(cls: type[Effect]) -> None:
+    """Wrap a plugin's :meth:`Effect.basis`: whoever calls it (simulation, screening, fitting) gets
+    one line naming the effect when it raises or returns anything but finite per-sample values."""
+    raw = cls.__dict__.get("basis")
+    if raw is None or getattr(raw, "checked_basis", False):
+        return
+
+    def basis(self, inputs):
+        try:
+            out = raw(self, inputs)
+        except TwinError:
+            raise
+        except (Exception, SystemExit) as exc:  # noqa: BLE001 - user code: named, never a traceback
+            raise ModelError(f"effect {self.name!r} ({type(self).__module__}): basis failed: {type(exc).__name__}: "
+                             f"{' '.join(str(exc).split())[:200]}") from None
+        amplitudes, n = set(self.amplitude_names()), np.shape(inputs.time_s)
+        if not (isinstance(out, dict) and set(out) <= amplitudes
+                and all(isinstance(c, Contribution) for c in out.values())):
+            raise ModelError(f"effect {self.name!r}: basis returned {type(out).__name__}; expected a mapping of its "
+                             f"amplitude parameters ({', '.join(sorted(amplitudes)) or 'none'}) to Contribution")
+        for key, c in out.items():
+            for part in ("bias_g", "scale_factor"):
+                a = np.asarray(getattr(c, part))
+                if a.dtype.kind not in "biuf" or a.shape not in ((), n) or not np.all(np.abs(a) <= BASIS_LIMIT):
+                    raise ModelError(f"effect {self.name!r}: basis {key}.{part}: got {a.dtype} of shape {a.shape}, "
+                                     f"expected {n[0] if n else 1} finite numbers within ±{BASIS_LIMIT:g}")
+        return out
+
+    basis.checked_basis = True
+    basis.__doc__ = raw.__doc__
+    cls.basis = basis
 
 
 def get_effect(name: str) -> type[Effect]:

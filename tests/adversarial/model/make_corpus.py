@@ -191,8 +191,28 @@ study("study_invalid_base.yaml", {"base": "base_invalid.yaml"}, "2 base_invalid.
 study("study_missing_base.yaml", {"base": "nowhere.yaml"}, "2 not found", "no base")
 study("study_nan_range.yaml", {"factors": {"device.sensor.zero_g_offset_mg": {"range": [0, float("nan")]}}}, "2 finite", "NaN range")
 study("study_plugin_raises.yaml", {"plugins": ["plugin_raises.py"]}, "2 RuntimeError", "a response plugin raising on import")
-study("study_every_run_fails.yaml", {"factors": {"device.sensor.zero_g_offset_mg": {"levels": [1e6, 2e6]}}},
-      "2 all 2 runs failed", "every run invalid: not a success")
+study("study_every_run_fails.yaml", {"factors": {"program.steps.0.dwell_s": {"levels": [5e7, 6e7]},
+      "test_plan.logger_rate_hz": {"levels": [1.0]}}}, "2 all 2 runs failed",
+      "each level valid alone, every combination over the sample limit: not a success")
+study("study_level_out_of_bounds.yaml", {"factors": {"device.sensor.zero_g_offset_mg": {"levels": [1e6, 2e6]}}},
+      "2 gives an invalid scenario", "levels outside the bounds: refused up front, not run and recorded as failed")
+study("study_json_over_ledger.yaml", {}, "2 overwrite", "--json over the study's own runs.jsonl (written last, before)",
+      cmd="doe FILE -o OUT --json OUT/runs.jsonl")
+# --- the FE package model: twin package, render --fem, FEM factors of a study
+PKG = copy.deepcopy(BASE)
+PKG["device"]["effects"] = {"package_fem": {"mould_cte_ppm_per_k": 11.0, "attach_modulus_gpa": 3.9,
+                                            "die_thickness_um": 400.0, "cell_offset_um": 300.0}}
+write("base_package_fem.yaml", PKG, "package FILE --json OUT.json", "0", "the FE package model's valid base")
+for name, key, levels in (("study_fem_zero_modulus.yaml", "attach_modulus_gpa", [0.0, 3.9]),
+                          ("study_fem_negative_thickness.yaml", "die_thickness_um", [-400.0, 400.0])):
+    study(name, {"base": "base_package_fem.yaml", "plugins": ["twin.studies.package_response"],
+                 "responses": ["package_tcoff_mg_per_c"], "factors": {f"device.effects.package_fem.{key}": {"levels": levels}}},
+          f"2 {key}", "a FEM factor level outside its bounds: refused before any run (exit 0 with failed runs before)")
+scen("package_json_over_input.yaml", {}, "2 overwrite an input", "twin package s.yaml --json s.yaml", cmd="package FILE --json FILE")
+scen("render_fem_json_same_as_out.yaml", {}, "2 two outputs", "-o and --json one file: the JSON replaced the PNG, exit 0",
+     cmd="render FILE --fem -o OUT.png --json OUT.png")
+scen("render_fem_negative_thickness.yaml", {"device.effects": {"package_fem": {"die_thickness_um": -1.0}}}, "2 die_thickness_um",
+     "negative die thickness", cmd="render FILE --fem -o OUT.png")
 study("study_unknown_response.yaml", {"responses": ["chamber_hour"]}, "2 chamber_hours", "did you mean")
 study("study_huge_max_runs.yaml", {"max_runs": 10**30}, "2 max_runs", "max_runs 1e30")
 study("study_out_is_file.yaml", {}, "2 folder", "-o a file", cmd="doe FILE -o FILE")

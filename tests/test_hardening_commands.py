@@ -1,0 +1,349 @@
+"""Bad input never crashes, hangs or overwrites (issue 14): the newer commands.
+
+``twin fleet`` / ``fleet-simulate`` spec files, ``twin firmware`` / ``apply`` calibration
+documents, ``--plugin`` effects that misbehave, ``--json`` / ``--report`` targets checked before
+the work, and Ctrl-C. Each case: exit 2 (130 for Ctrl-C), one line, no file left, no input changed.
+Everything is refused before any unit, run or solve, so each case takes well under a second.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from conftest import ROOT
+
+MODEL = ROOT / "tests" / "adversarial" / "model"
+CAL = ROOT / "tests" / "adversarial" / "calibration" / "cal_one_imu.json"
+LOG_ROWS = "time_s,temperature_c,output_g,applied_g,run,power_on\n" + "".join(
+    f"{10.0 * i},{-20 + i},1.0,1.0,0,{int(i == 0)}\n" for i in range(30))
+
+
+def run_main(args: list[str]) -> tuple[int, str, str]:
+    """``twin ARGS`` in process: (exit code, stdout, stderr)."""
+    from twin.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            main(args)
+            code = 0
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else 1
+    return code, out.getvalue(), err.getvalue()
+
+
+def snapshot(folder: Path) -> dict[str, str]:
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir"
+            for p in sorted(folder.rglob("*"))}
+
+
+def refused(folder: Path, args: list[str], fragment: str, code: int = 2) -> str:
+    """Run ``args`` in ``folder`` (paths relative to it): exit ``code``, one line holding ``fragment``,
+    nothing written, nothing changed."""
+    before = snapshot(folder)
+    with contextlib.chdir(folder):
+        got, out, err = run_main(args)
+    lines = err.splitlines()
+    assert got == code, (got, err)
+    assert len(lines) == 1 and lines[0].startswith("twin: "), err
+    assert fragment in lines[0], lines[0]
+    assert "Traceback" not in out + err
+    assert snapshot(folder) == before, "a file was written or changed"
+    return lines[0]
+
+
+@pytest.fixture
+def fleet_dir(tmp_path) -> Path:
+    """ok_tiny.yaml, two unit logs under logs/, and a fleet scenario over the same base."""
+    shutil.copy(MODEL / "ok_tiny.yaml", tmp_path / "ok_tiny.yaml")
+    (tmp_path / "logs").mkdir()
+    for unit in ("u1", "u2"):
+        (tmp_path / "logs" / f"{unit}.csv").write_text(LOG_ROWS)
+    return tmp_path
+
+
+def fleet_spec(folder: Path, text: str) -> str:
+    (folder / "f.yaml").write_text(text)
+    return "f.yaml"
+
+
+# ------------------------------------------------------------------ twin fleet: the spec's values
+
+
+@pytest.mark.parametrize("body, fragment", [
+    ('units: {"../../evil": logs/u1.csv}', "unit id '../../evil'"),  # wrote outside -o before
+    ("units: {null: logs/u1.csv}", "unit id None"),
+    ("units: {a: logs}", "is a folder"),
+    ("units: logs/*.csv\nscenario: [a, b]", "scenario: expected the path"),  # TypeError before
+    ("units: logs/*.csv\nscenario: logs/u1.csv", "u1.csv"),  # every unit failed the same way, exit 0
+    ("units: logs/*.csv\noutlier_threshold: .nan", "outlier_threshold"),
+    ("units: logs/*.csv\noutlier_threshold: true", "outlier_threshold"),
+    ("units: logs/*.csv\noptions: {average_s: -5}", "average_s"),
+    ("units: logs/*.csv\noptions: {applied_g: .nan}", "applied_g"),
+    ("units: logs/*.csv\noptions: {with_effects: [nope_effect]}", "nope_effect"),
+    ("units: logs/*.csv\noptions: {with_effects: [1, 2]}", "with_effects"),
+    ("units: logs/*.csv\ncolumns: {header: maybe}", "header: got 'maybe'"),
+    ("units: logs/*.csv\ncommand: calibrate\noptions: {imu: abc}", "options.imu"),
+])
+def test_fleet_spec_values_are_refused_before_any_unit(fleet_dir, body, fragment):
+    spec = fleet_spec(fleet_dir, ("scenario: ok_tiny.yaml\n" if "scenario" not in body else "") + body + "\n")
+    refused(fleet_dir, ["fleet", spec, "-o", "out"], fragment)
+
+
+def test_fleet_spec_not_utf8(fleet_dir):
+    (fleet_dir / "f.yaml").write_bytes(b"units: \xff\xfe\n")
+    refused(fleet_dir, ["fleet", "f.yaml", "-o", "out"], "not UTF-8")
+
+
+@pytest.mark.parametrize("json_target, fragment", [
+    ("f.yaml", "overwrite an input"), ("logs/u1.csv", "overwrite an input"), ("ok_tiny.yaml", "overwrite an input"),
+    ("out/units.jsonl", "overwrite an input"), ("ok_tiny.yaml/x.json", "not a folder"), ("logs", "directory"),
+])
+def test_fleet_json_is_checked_before_the_units_run(fleet_dir, json_target, fragment):
+    """--json used to be written after every unit: over the spec, a log or the scenario (exit 0)."""
+    spec = fleet_spec(fleet_dir, "scenario: ok_tiny.yaml\nunits: logs/*.csv\n")
+    refused(fleet_dir, ["fleet", spec, "-o", "out", "--json", json_target], fragment)
+
+
+def test_a_foreign_folder_gets_no_lock_file(fleet_dir):
+    spec = fleet_spec(fleet_dir, "scenario: ok_tiny.yaml\nunits: logs/*.csv\n")
+    (fleet_dir / "out").mkdir()
+    (fleet_dir / "out" / "units.jsonl").write_text("hello\n")
+    refused(fleet_dir, ["fleet", spec, "-o", "out"], "not a unit record")
+
+
+# ------------------------------------------------------------------ twin fleet-simulate
+
+
+@pytest.mark.parametrize("extra, fragment", [
+    ("seed: abc", "seed"), ("seed: -5", "seed"), ("seed: 3.7", "seed"), ("seed: .nan", "seed"),
+    ("seed: 100000000000000000000000", "seed"), ("vary: [1, 2]", "vary: expected a mapping"),
+    ("effects: [a, b]", "effects: expected a mapping"),
+    ("vary: {device.effects.static_bias_tc.tc1_mg_per_c: {normal: [0, -1]}}", "standard deviation"),
+    ("vary: {device.effects.static_bias_tc.tc1_mg_per_c: {uniform: [0, .inf]}}", "finite"),
+    ("effects: {thermal_lag: {prevalence: 1, set: [1]}}", "set: expected a mapping"),
+    ("effects: {thermal_lag: {prevalence: 1, draw: abc}}", "draw: expected a mapping"),
+    ("logger_rate_hz: fast", "logger_rate_hz"), ("id_prefix: ../../evil", "id_prefix"),
+    ("id_prefix: [a]", "id_prefix"), ("name: [1, 2]", "name: expected text"),
+    # a value only some units draw: found up front, not by that unit after the others were written
+    ("vary: {chamber.air_tau_s: {choice: [60, 60, 60, 60, 60, 60, 60, 60, 60, -5]}}", "got -5"),
+    ("effects: {thermal_lag: {prevalence: 0.0, draw: {chamber.lumped.die_tau_s: {uniform: [-10, 100]}}}}", "got -10"),
+])
+def test_fleet_scenario_values(fleet_dir, extra, fragment):
+    (fleet_dir / "s.yaml").write_text(f"base: ok_tiny.yaml\nunits: 2\n{extra}\n")
+    refused(fleet_dir, ["fleet-simulate", "s.yaml", "-o", "out"], fragment)
+
+
+def test_fleet_scenario_not_utf8(fleet_dir):
+    (fleet_dir / "s.yaml").write_bytes(b"base: \xff\n")
+    refused(fleet_dir, ["fleet-simulate", "s.yaml", "-o", "out"], "not UTF-8")
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["--json", "s.yaml"], "overwrite an input"),  # the spec was replaced by the JSON, exit 0
+    (["--json", "logs"], "directory"), (["--json", "ok_tiny.yaml/x.json"], "not a folder"),
+    (["--json", "out/fleet.yaml"], "two outputs"),
+])
+def test_fleet_simulate_outputs_are_checked_before_any_unit(fleet_dir, args, fragment):
+    (fleet_dir / "s.yaml").write_text("base: ok_tiny.yaml\nunits: 2\n")
+    refused(fleet_dir, ["fleet-simulate", "s.yaml", "-o", "out", *args], fragment)
+
+
+def test_fleet_simulate_never_writes_over_its_spec(fleet_dir):
+    """-o the spec's own folder with the spec named fleet.yaml: it would be replaced by the written spec."""
+    (fleet_dir / "fleet.yaml").write_text("base: ok_tiny.yaml\nunits: 2\n")
+    refused(fleet_dir, ["fleet-simulate", "fleet.yaml", "-o", "."], "overwrite an input")
+
+
+# ------------------------------------------------------------------ calibration documents
+
+
+def _edited(tmp_path: Path, edit) -> Path:
+    doc = json.loads(CAL.read_text())
+    doc = edit(doc) or doc
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def _set(path: tuple, value):
+    def edit(doc):
+        node = doc
+        for k in path[:-1]:
+            node = node[k]
+        node[path[-1]] = value
+    return edit
+
+
+CORRUPT = {
+    "imus_string": (_set(("imus",), "x"), "imus: got str"),
+    "imu_string": (_set(("imus",), ["x"]), "imus: got list"),
+    "no_methods": (lambda d: d["imus"][0].pop("methods") and None, "methods"),
+    "instance_text": (_set(("imus", 0, "instance"), "zero"), "instance"),
+    "span_nan": (_set(("imus", 0, "temperature_span_c"), [float("nan"), 50.0]), "temperature_span_c"),
+    "span_reversed": (_set(("imus", 0, "temperature_span_c"), [50.0, 5.0]), "temperature_span_c"),
+    "device_id_text": (_set(("imus", 0, "device_id"), "abc"), "device_id"),
+    "samples_nan": (_set(("imus", 0, "samples"), float("nan")), "samples"),
+    "level_nan": (_set(("imus", 0, "methods", "px4", "level_g"), [float("nan")] * 3), "methods.px4"),
+    "coefficient_inf": (_set(("imus", 0, "methods", "px4", "firmware", "coefficients", "x", "values", 1),
+                             float("inf")), "methods.px4"),
+    "coefficient_text": (_set(("imus", 0, "methods", "ardupilot", "firmware", "coefficients", "y", "values", 0),
+                              "abc"), "methods.ardupilot"),
+    "twin_tau_nan": (_set(("imus", 0, "methods", "twin", "tau_die_s"), [float("nan")] * 3), "methods.twin"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CORRUPT))
+@pytest.mark.parametrize("command", ["px4", "c", "apply"])
+def test_corrupt_calibration_documents(tmp_path, case, command):
+    """Each used to crash (TypeError/KeyError, exit 1) or write a firmware file of NaN (exit 0)."""
+    edit, fragment = CORRUPT[case]
+    cal = _edited(tmp_path, edit)
+    (tmp_path / "log.csv").write_text(LOG_ROWS)
+    args = (["apply", "c.json", "log.csv", "-o", "o.csv"] if command == "apply"
+            else ["firmware", "c.json", "--format", command, "-o", "o.txt"])
+    refused(tmp_path, args, fragment)
+    assert cal.exists()
+
+
+def test_the_trimmed_document_still_exports(tmp_path):
+    shutil.copy(CAL, tmp_path / "c.json")
+    with contextlib.chdir(tmp_path):
+        for fmt in ("px4", "ardupilot", "json", "c"):
+            code, _, err = run_main(["firmware", "c.json", "--format", fmt, "-o", f"o.{fmt}"])
+            assert code == 0, err
+
+
+def test_calibrate_report_is_checked_before_the_calibration_is_written(tmp_path):
+    (tmp_path / "log.csv").write_text(LOG_ROWS)
+    refused(tmp_path, ["calibrate", "log.csv", "-o", "c.json", "--report", "c.json"], "--report names a file")
+
+
+# ------------------------------------------------------------------ plugins that misbehave
+
+
+PLUGIN = '''
+import numpy as np
+from twin.effects import Contribution, Effect, Parameter, register
+
+
+@register
+class Edited(Effect):
+    name = "adv_edited_{tag}"
+    family = "discovered"
+    reads = ("die_c",)
+    parameters = (Parameter("c1_mg", "mg", 0.1, (-1.0, 1.0), source="test", role="amplitude"),)
+
+    def basis(self, inputs):
+        col = np.asarray(inputs.die_c, float)
+        return {body}
+'''
+
+
+@pytest.mark.parametrize("tag, body, fragment", [
+    ("nan", '{"c1_mg": Contribution(bias_g=col * float("nan"))}', "finite numbers"),
+    ("short", '{"c1_mg": Contribution(bias_g=col[:3])}', "shape (3,)"),
+    ("text", '{"c1_mg": Contribution(bias_g="abc")}', "finite numbers"),
+    ("none", "None", "basis returned NoneType"),
+    ("huge", '{"c1_mg": Contribution(bias_g=1e300 * col)}', "finite numbers"),  # overflow warnings, exit 0
+    ("raises", '{"c1_mg": Contribution(bias_g=col)} if int("x") else {}', "basis failed: ValueError"),
+])
+def test_a_plugin_effect_that_returns_garbage_is_named(tmp_path, tag, body, fragment):
+    """compare --plugin: an edited discovered effect used to end in an internal error (exit 1)."""
+    from twin.effects import REGISTRY
+
+    shutil.copy(MODEL / "ok_tiny.yaml", tmp_path / "ok_tiny.yaml")
+    (tmp_path / "log.csv").write_text(LOG_ROWS)
+    (tmp_path / "p.py").write_text(PLUGIN.format(tag=tag, body=body))
+    try:
+        line = refused(tmp_path, ["compare", "ok_tiny.yaml", "log.csv", "--plugin", "p.py"], fragment)
+        assert f"adv_edited_{tag}" in line
+    finally:
+        REGISTRY.pop(f"adv_edited_{tag}", None)
+
+
+@pytest.mark.parametrize("make, spec, fragment", [
+    (lambda d: (d / "p.txt").write_text("x = 1\n"), "p.txt", "not a .py file"),
+    (lambda d: (d / "pdir").mkdir(), "pdir", "a folder"),
+    (lambda d: (d / "pdir.py").mkdir(), "pdir.py", "is a folder"),
+])
+def test_a_plugin_path_that_is_no_python_file(tmp_path, make, spec, fragment):
+    shutil.copy(MODEL / "ok_tiny.yaml", tmp_path / "ok_tiny.yaml")
+    (tmp_path / "log.csv").write_text(LOG_ROWS)
+    make(tmp_path)
+    refused(tmp_path, ["compare", "ok_tiny.yaml", "log.csv", "--plugin", spec], fragment)
+
+
+def test_compare_average_s_infinite(tmp_path):
+    shutil.copy(MODEL / "ok_tiny.yaml", tmp_path / "ok_tiny.yaml")
+    (tmp_path / "log.csv").write_text(LOG_ROWS)
+    refused(tmp_path, ["compare", "ok_tiny.yaml", "log.csv", "--average-s", "inf"], "--average-s")
+
+
+# ------------------------------------------------------------------ outputs, usage, Ctrl-C
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs /proc")
+@pytest.mark.parametrize("args", [
+    ["render", "ok_tiny.yaml", "--fem", "-o", "o.png", "--json", "/proc/x.json"],  # left o.png before
+    ["package", "ok_tiny.yaml", "--json", "/proc/x.json"],
+    ["parts", "--json", "/proc/x.json"],
+])
+def test_an_unwritable_json_target_is_found_before_the_work(tmp_path, args):
+    shutil.copy(MODEL / "ok_tiny.yaml", tmp_path / "ok_tiny.yaml")
+    refused(tmp_path, args, "cannot write in /proc")
+
+
+def test_parts_json_over_the_part_file(tmp_path):
+    shutil.copy(ROOT / "twin" / "parts" / "iis328dq.yaml", tmp_path / "p.yaml")
+    refused(tmp_path, ["parts", "p.yaml", "--json", "p.yaml"], "overwrite an input")
+
+
+def test_mp4_without_a_writer_is_one_line(tmp_path, monkeypatch):
+    """No imageio-ffmpeg: an internal ValueError (exit 1) after the frames were drawn, before."""
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name in ("imageio_ffmpeg", "av")
+                        else real(name, *a))
+    shutil.copy(MODEL / "ok_tiny.yaml", tmp_path / "ok_tiny.yaml")
+    refused(tmp_path, ["render", "ok_tiny.yaml", "--sweep", "0:10:5", "-o", "o.mp4"], "imageio-ffmpeg")
+
+
+def test_bare_twin_names_what_is_missing(tmp_path):
+    with contextlib.chdir(tmp_path):
+        code, _, err = run_main([])
+    assert code == 2 and err == "twin: error: missing command (see 'twin --help')\n", err
+
+
+def test_ctrl_c_turned_into_another_error_is_still_an_interruption(tmp_path, monkeypatch):
+    """A SIGINT during an extension's import surfaces as ImportError: exit 130 and one line, not exit 1."""
+    import signal
+
+    import twin.cli.field
+
+    def interrupted_import(*a, **k):
+        handler = signal.getsignal(signal.SIGINT)
+        try:
+            handler(signal.SIGINT, None)
+        except KeyboardInterrupt:
+            raise ImportError("initialization failed") from None
+
+    monkeypatch.setattr(twin.cli.field, "parse_axes", interrupted_import)
+    (tmp_path / "log.csv").write_text(LOG_ROWS)
+    refused(tmp_path, ["calibrate", "log.csv", "-o", "c.json"], "twin: interrupted", code=130)
+
+
+def test_ctrl_c_inside_a_plugin_is_one_line(tmp_path):
+    shutil.copy(MODEL / "ok_tiny.yaml", tmp_path / "ok_tiny.yaml")
+    (tmp_path / "log.csv").write_text(LOG_ROWS)
+    (tmp_path / "p.py").write_text("raise KeyboardInterrupt\n")
+    with contextlib.chdir(tmp_path):
+        code, _, err = run_main(["compare", "ok_tiny.yaml", "log.csv", "--plugin", "p.py"])
+    assert code == 130 and err.strip() == "twin: interrupted", err
