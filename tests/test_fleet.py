@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 from conftest import run_cli
-from twin.fleet.ledger import LEDGER, read_ledger
+from twin.fleet.ledger import LEDGER, exclusive, open_ledger, read_ledger
 from twin.fleet.population import population, robust_z, table_rows
 from twin.fleet.runner import dask_client, run_fleet
 from twin.fleet.simulate import draw_unit, load_fleet_scenario, score_against_truth, simulate_fleet
@@ -233,3 +233,12 @@ def test_fleet_calibrate_command_per_unit(tmp_path):
     doc = json.loads((tmp_path / "out" / run.records[0]["reports"]["json"]).read_text())
     assert doc["imus"] and run.records[0]["recommended"]
     assert any(k.endswith("heldout_rms_mg.z") for k in run.records[0]["parameters"])
+
+
+def test_an_output_that_is_a_file_is_one_line_and_the_file_is_kept(tmp_path):
+    spec = tmp_path / "fleet.yaml"
+    spec.write_text("scenario: x.yaml\n")
+    for step in (open_ledger, lambda p: exclusive(p).__enter__()):  # the lock used to raise "File exists"
+        with pytest.raises(FleetError, match="the output must be a folder, and this is a file"):
+            step(spec)
+    assert spec.read_text() == "scenario: x.yaml\n"

@@ -98,11 +98,16 @@ def remove_temporaries(folder: Path) -> int:
     return n
 
 
-def open_ledger(out_dir: Path) -> LedgerState:
-    """Prepare ``out_dir`` for a run: stale temporaries removed, a torn last line cut, records read."""
+def make_output_folder(out_dir: Path) -> None:
+    """Create ``out_dir``; a file in its place is one line, not the OS's "File exists"."""
     if out_dir.exists() and not out_dir.is_dir():
         raise FleetError(f"{out_dir}: the output must be a folder, and this is a file")
     out_dir.mkdir(parents=True, exist_ok=True)
+
+
+def open_ledger(out_dir: Path) -> LedgerState:
+    """Prepare ``out_dir`` for a run: stale temporaries removed, a torn last line cut, records read."""
+    make_output_folder(out_dir)
     path = out_dir / LEDGER
     records = read_ledger(path)  # refuse a foreign folder before touching anything in it
     removed = remove_temporaries(out_dir)
@@ -113,7 +118,7 @@ def open_ledger(out_dir: Path) -> LedgerState:
 @contextmanager
 def exclusive(out_dir: Path):
     """Hold ``out_dir/.lock`` for the run: two fleets writing one ledger would interleave units."""
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_output_folder(out_dir)
     with open(out_dir / ".lock", "w") as f:
         try:
             fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
