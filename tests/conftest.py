@@ -35,6 +35,23 @@ def coarse_text(path: Path, rate_hz: float = 0.5, max_cycles: int = 1) -> str:
     return yaml.safe_dump(data, sort_keys=False)
 
 
+def run_in_process(argv) -> tuple[int, str, str]:
+    """``twin argv`` in this process (fast; for many small cases): exit code, stdout, stderr."""
+    import contextlib
+    import io
+
+    from twin.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            main([str(a) for a in argv])
+            code = 0
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else 1
+    return code, out.getvalue(), err.getvalue()
+
+
 def run_cli(*args: str, cwd: Path | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
     """Run ``twin`` as a user would (a fresh process)."""
     env = {**os.environ, "PYTHONWARNINGS": "ignore"}

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import io
 import json
 import shutil
 from pathlib import Path
 
 import pytest
 from conftest import ROOT
+from conftest import run_in_process as run_main
 
 MODEL = ROOT / "tests" / "adversarial" / "model"
 CAL = ROOT / "tests" / "adversarial" / "calibration" / "cal_one_imu.json"
@@ -24,18 +24,6 @@ LOG_ROWS = "time_s,temperature_c,output_g,applied_g,run,power_on\n" + "".join(
     f"{10.0 * i},{-20 + i},1.0,1.0,0,{int(i == 0)}\n" for i in range(30))
 
 
-def run_main(args: list[str]) -> tuple[int, str, str]:
-    """``twin ARGS`` in process: (exit code, stdout, stderr)."""
-    from twin.cli import main
-
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            main(args)
-            code = 0
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else 1
-    return code, out.getvalue(), err.getvalue()
 
 
 def snapshot(folder: Path) -> dict[str, str]:

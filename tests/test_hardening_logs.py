@@ -8,8 +8,6 @@ line or key) and what was expected, and writes nothing on failure.
 
 from __future__ import annotations
 
-import contextlib
-import io
 from pathlib import Path
 
 import numpy as np
@@ -17,9 +15,9 @@ import pytest
 import yaml
 
 from conftest import ROOT
+from conftest import run_in_process as run
 from logfixtures import write_canonical
 import twin.measurement as tm
-from twin.cli import main
 from twin.measurement import delimited
 
 CORPUS = ROOT / "tests" / "adversarial" / "logs"
@@ -28,16 +26,6 @@ SCENARIO = ROOT / "scenarios" / "paper_iis328dq.yaml"
 TRI = ["--time-col", "t", "--temperature-col", "temp", "--x-col", "ax", "--y-col", "ay", "--z-col", "az"]
 
 
-def run(argv: list[str]) -> tuple[int, str, str]:
-    """``twin argv`` in process: exit code, stdout, stderr."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            main([str(a) for a in argv])
-            code = 0
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else 1
-    return code, out.getvalue(), err.getvalue()
 
 
 def assert_one_line_error(code: int, err: str, fragment: str | None = None) -> None:

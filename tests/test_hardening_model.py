@@ -9,9 +9,7 @@ and on failure nothing at all.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
-import io
 import json
 import os
 import resource
@@ -26,23 +24,12 @@ import h5py
 import numpy as np
 import pytest
 from conftest import ROOT, coarse_text
+from conftest import run_in_process as run_main
 
 CORPUS = ROOT / "tests" / "adversarial" / "model"
 CASES = sorted(p.name for p in CORPUS.glob("*.yaml"))
 
 
-def run_main(args: list[str]) -> tuple[int, str, str]:
-    """``twin ARGS`` in process: (exit code, stdout, stderr)."""
-    from twin.cli import main
-
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            main(args)
-            code = 0
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else 1
-    return code, out.getvalue(), err.getvalue()
 
 
 def snapshot(folder: Path) -> dict[str, str]:

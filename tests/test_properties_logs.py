@@ -11,8 +11,6 @@ runs 20,000.
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import math
 import tempfile
@@ -26,9 +24,8 @@ hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from conftest import ROOT  # noqa: E402
+from conftest import ROOT, run_in_process  # noqa: E402
 import twin.measurement as tm  # noqa: E402
-from twin.cli import main  # noqa: E402
 from twin.measurement import delimited  # noqa: E402
 
 SCENARIO = ROOT / "scenarios" / "paper_iis328dq.yaml"
@@ -68,14 +65,8 @@ def counted(name: str) -> None:
 
 
 def run_cli(argv) -> tuple[int, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            main([str(a) for a in argv])
-            code = 0
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else 1
-    return code, err.getvalue()
+    code, _, err = run_in_process(argv)
+    return code, err
 
 
 def assert_contract(code: int, err: str) -> None:

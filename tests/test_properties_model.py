@@ -10,9 +10,7 @@ here so that a generated run stays small — the limit logic is the same, only i
 
 from __future__ import annotations
 
-import contextlib
 import copy
-import io
 import json
 import math
 import os
@@ -24,7 +22,7 @@ import pytest
 import yaml
 
 hypothesis = pytest.importorskip("hypothesis")
-from conftest import ROOT  # noqa: E402
+from conftest import ROOT, run_in_process  # noqa: E402
 from hypothesis import HealthCheck, event, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
@@ -38,16 +36,8 @@ def ci_budget(n: int) -> int:
 
 
 def run_main(args: list[str]) -> tuple[int, str]:
-    from twin.cli import main
-
-    err = io.StringIO()
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
-        try:
-            main(args)
-            code = 0
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else 1
-    return code, err.getvalue()
+    code, _, err = run_in_process(args)
+    return code, err
 
 
 @pytest.fixture(autouse=True)
