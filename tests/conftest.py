@@ -1,8 +1,12 @@
 """Shared fixtures: paths, a coarse version of any scenario, a CLI runner."""
 
+import atexit
+import functools
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -33,6 +37,25 @@ def coarse_text(path: Path, rate_hz: float = 0.5, max_cycles: int = 1) -> str:
     data.setdefault("test_plan", {})["logger_rate_hz"] = rate_hz
     data["program"]["cycles"] = min(data["program"].get("cycles", 1), max_cycles)
     return yaml.safe_dump(data, sort_keys=False)
+
+
+@functools.cache
+def log_corpus() -> Path:
+    """The adversarial log corpus in a temporary folder, built once per test process: the committed
+    text files of tests/adversarial/logs and the binary ones its ``make_corpus.write_binary`` writes."""
+    source = ROOT / "tests" / "adversarial" / "logs"
+    folder = Path(tempfile.mkdtemp(prefix="twin-log-corpus-"))
+    atexit.register(shutil.rmtree, folder, True)
+    for path in source.iterdir():
+        if path.is_file() and path.name not in ("expect.yaml", "make_corpus.py"):
+            shutil.copyfile(path, folder / path.name)
+    sys.path.insert(0, str(source))
+    try:
+        import make_corpus
+    finally:
+        sys.path.remove(str(source))
+    make_corpus.write_binary(folder)
+    return folder
 
 
 def run_in_process(argv) -> tuple[int, str, str]:

@@ -1,8 +1,8 @@
 """Bad measurement input never crashes, hangs or overwrites (issue 14, the log side), and the
 chunked fast reader returns exactly what the careful reader returns.
 
-The adversarial corpus (tests/adversarial/logs, listed in its expect.yaml) runs through the CLI in
-process: each file ends in exit 0, or exit 2 with one ``twin: error:`` line naming the file (and
+The adversarial corpus (tests/adversarial/logs, listed in its expect.yaml; its binary files written
+per test process by conftest.log_corpus) runs through the CLI in process: each file ends in exit 0, or exit 2 with one ``twin: error:`` line naming the file (and
 line or key) and what was expected, and writes nothing on failure.
 """
 
@@ -14,14 +14,14 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import ROOT
+from conftest import ROOT, log_corpus
 from conftest import run_in_process as run
 from logfixtures import write_canonical
 import twin.measurement as tm
 from twin.measurement import delimited
 
-CORPUS = ROOT / "tests" / "adversarial" / "logs"
-EXPECT = yaml.safe_load((CORPUS / "expect.yaml").read_text())
+CORPUS = log_corpus()  # text files committed, binary ones written per test process
+EXPECT = yaml.safe_load((ROOT / "tests" / "adversarial" / "logs" / "expect.yaml").read_text())
 SCENARIO = ROOT / "scenarios" / "paper_iis328dq.yaml"
 TRI = ["--time-col", "t", "--temperature-col", "temp", "--x-col", "ax", "--y-col", "ay", "--z-col", "az"]
 
@@ -36,8 +36,10 @@ def assert_one_line_error(code: int, err: str, fragment: str | None = None) -> N
 
 
 def test_every_corpus_file_is_listed_and_every_listed_file_exists():
-    files = {p.name for p in CORPUS.iterdir() if p.name not in ("expect.yaml", "make_corpus.py")}
-    assert files == set(EXPECT)
+    assert {p.name for p in CORPUS.iterdir()} == set(EXPECT)
+    committed = ROOT / "tests" / "adversarial" / "logs"
+    for path in committed.iterdir():  # binary files are written by the tests, never committed
+        assert b"\0" not in path.read_bytes(), path.name
 
 
 def _argv(name: str, out: Path) -> list:

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import ROOT, SHARED
+from conftest import ROOT, SHARED, log_corpus
 from logfixtures import FIXTURES, G_MS2, chamber_run, write_canonical
 import twin.measurement as tm
 from twin.errors import TwinError
@@ -243,7 +243,7 @@ def test_importing_measurements_loads_no_flight_log_library():
 
 # ---- large delimited logs: read in chunks into the final arrays ---------------------------------
 
-CORPUS = ROOT / "tests" / "adversarial" / "logs"
+CORPUS = log_corpus()  # text files committed, binary ones written per test process
 ARRAYS = ("time_s", "temperature_c", "output_g", "applied_g", "run_index", "power_on")
 
 
