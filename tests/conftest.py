@@ -58,6 +58,20 @@ def log_corpus() -> Path:
     return folder
 
 
+def record_results(monkeypatch, owner, name: str) -> list:
+    """Replace ``owner.name`` by a wrapper that appends each result to the returned list."""
+    original = getattr(owner, name)
+
+    def spy(*args, **kwargs):
+        result = original(*args, **kwargs)
+        taken.append(result)
+        return result
+
+    taken: list = []
+    monkeypatch.setattr(owner, name, spy)
+    return taken
+
+
 def run_in_process(argv) -> tuple[int, str, str]:
     """``twin argv`` in this process (fast; for many small cases): exit code, stdout, stderr."""
     import contextlib

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import ROOT, log_corpus
+from conftest import ROOT, log_corpus, record_results
 from conftest import run_in_process as run
 from logfixtures import write_canonical
 import twin.measurement as tm
@@ -191,14 +191,7 @@ def test_fast_and_careful_paths_agree_exactly(case, tmp_path, monkeypatch):
 
 
 def test_clean_files_take_the_fast_path_and_anything_else_the_careful_one(monkeypatch):
-    taken = []
-    original = delimited._fast_values
-
-    def spy(*args, **kwargs):
-        taken.append(original(*args, **kwargs))
-        return taken[-1]
-
-    monkeypatch.setattr(delimited, "_fast_values", spy)
+    taken = record_results(monkeypatch, delimited, "_fast_values")
     assert len(tm.read_table(CORPUS / "valid.csv")) == 30 and taken[-1] is not None
     for name in ("text_in_number.csv", "ragged_row.csv", "non_utf8_row.csv"):
         with pytest.raises(tm.MeasurementError):

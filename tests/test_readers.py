@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import ROOT, SHARED, log_corpus
+from conftest import ROOT, SHARED, log_corpus, record_results
 from logfixtures import FIXTURES, G_MS2, chamber_run, write_canonical
 import twin.measurement as tm
 from twin.errors import TwinError
@@ -268,12 +268,7 @@ def chunked_reader(monkeypatch):
     """Every file counts as large, in chunks of 7 rows, from an estimate of 5 rows (so the arrays grow)."""
     from twin.measurement import chunked, delimited
 
-    taken = []
-    original = chunked.measurement_from_chunks
-
-    def spy(*args, **kwargs):
-        taken.append(original(*args, **kwargs))
-        return taken[-1]
+    taken = record_results(monkeypatch, chunked, "measurement_from_chunks")
 
     def force(on: bool):
         if on:
@@ -283,7 +278,6 @@ def chunked_reader(monkeypatch):
 
     monkeypatch.setattr(chunked, "CHUNK_ROWS", 7)
     monkeypatch.setattr(chunked, "estimated_rows", lambda *a: 5)
-    monkeypatch.setattr(chunked, "measurement_from_chunks", spy)
     assert delimited.chunked is chunked
     return force, taken
 
