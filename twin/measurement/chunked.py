@@ -24,13 +24,19 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.measurement.columns import ColumnMap, convert_output, convert_temperature_c, time_factor_s
+from twin.measurement.columns import (
+    RUN_MAX,
+    ColumnMap,
+    convert_output,
+    convert_temperature_c,
+    not_whole_in_range,
+    time_factor_s,
+)
 from twin.measurement.core import MIN_ROWS, Measurement, MeasurementError, check
 
 LARGE_FILE_BYTES = 256 * 2**20  # smaller logs (every test, the 0.5 M-row benchmark) keep the in-memory path
 LARGE_FILE_ENV = "TDE_TWIN_CHUNKED_MIN_BYTES"  # overrides LARGE_FILE_BYTES (a test forces small files here)
 CHUNK_ROWS = 1 << 18  # ≈ 12 MB of float64 per chunk of six columns: the frame is no longer a peak
-RUN_MAX = int(np.iinfo(np.int16).max)
 
 
 def large_file_bytes() -> int:
@@ -84,10 +90,6 @@ class _Columns:
         return self.arrays
 
 
-def _whole(values: np.ndarray, high: int) -> bool:
-    return not ((values != np.round(values)) | (values < 0) | (values > high)).any()
-
-
 def measurement_from_chunks(path: Path, cmap: ColumnMap, open_frames: Callable[[], Iterable], roles,
                             position: Callable, first_line: int, run: int = 0,
                             applied_g: float | None = None) -> Measurement | None:
@@ -127,9 +129,9 @@ def measurement_from_chunks(path: Path, cmap: ColumnMap, open_frames: Callable[[
                 values = {role: frame.iloc[:, idx].to_numpy(np.float64) for role, idx in wanted.items()}
                 if not all(np.isfinite(v).all() for v in values.values()):
                     return None
-                if "run" in values and not _whole(values["run"], RUN_MAX):
+                if "run" in values and not_whole_in_range(values["run"], 0, RUN_MAX).any():
                     return None
-                if "power_on" in values and not _whole(values["power_on"], 1):
+                if "power_on" in values and not_whole_in_range(values["power_on"], 0, 1).any():
                     return None
                 a, b = n, n + len(frame)
                 store.ensure(b)

@@ -162,6 +162,14 @@ class ColumnMap:
         return self.x, self.y, self.z
 
 
+RUN_MAX = int(np.iinfo(np.int16).max)  # runs are stored as int16
+
+
+def not_whole_in_range(values: np.ndarray, low: int, high: int) -> np.ndarray:
+    """Where ``values`` (a run or power-on column read as floats) is not a whole number in [low, high]."""
+    return (values != np.round(values)) | (values < low) | (values > high)
+
+
 def time_factor_s(unit: str) -> float:
     """Seconds per ``unit`` (``nan`` for an unknown unit, so the caller names the unit)."""
     return TIME_FACTORS_S.get(unit, np.nan)

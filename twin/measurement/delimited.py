@@ -25,9 +25,11 @@ import numpy as np
 
 from twin.measurement import chunked
 from twin.measurement.columns import (
+    RUN_MAX,
     ColumnMap,
     convert_output,
     convert_temperature_c,
+    not_whole_in_range,
     time_factor_s,
 )
 from twin.measurement.core import Measurement, MeasurementError, check
@@ -233,7 +235,7 @@ def _kept_count(values: dict, keep: np.ndarray | None) -> int:
 
 def _whole_numbers(values: np.ndarray, path: Path, first_line: int, role: str, low: int, high: int) -> np.ndarray:
     """``values`` as integers in [low, high]; a fraction or an out-of-range value names its line."""
-    wrong = (values != np.round(values)) | (values < low) | (values > high)
+    wrong = not_whole_in_range(values, low, high)
     if wrong.any():
         k = int(np.flatnonzero(wrong)[0])
         raise MeasurementError(f"{path}: {role} column holds {values[k]:g} (row {k + 1} of the data, about line "
@@ -303,7 +305,7 @@ def measurement_from_columns(path: Path, cmap: ColumnMap, values: dict, keep: np
     else:
         applied, known = np.full(n, np.nan), False
     first = first_line
-    run_idx = (_whole_numbers(_kept(values["run"], keep), path, first, "run", 0, np.iinfo(np.int16).max)
+    run_idx = (_whole_numbers(_kept(values["run"], keep), path, first, "run", 0, RUN_MAX)
                if "run" in values else np.full(n, run, np.int16))
     power = (_whole_numbers(_kept(values["power_on"], keep), path, first, "power_on", 0, 1).astype(bool)
              if "power_on" in values else np.zeros(n, bool))

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from twin.measurement.columns import RUN_MAX
 from twin.measurement.core import Measurement, MeasurementError, check, check_arrays
 from twin.measurement.imu import ImuLog
 from twin.measurement.registry import ReadOptions, register_reader
@@ -49,8 +50,8 @@ def read_dataset_blind(path: str | Path) -> Measurement:
     path = Path(path)
     arrays = logged_arrays(path, LOGGED)
     run = arrays["test/run_index"]
-    if not (np.isfinite(run).all() and run.min() >= 0 and run.max() <= np.iinfo(np.int16).max):
-        raise MeasurementError(f"{path}: test/run_index outside 0..{np.iinfo(np.int16).max}; expected run numbers")
+    if not (np.isfinite(run).all() and run.min() >= 0 and run.max() <= RUN_MAX):
+        raise MeasurementError(f"{path}: test/run_index outside 0..{RUN_MAX}; expected run numbers")
     m = Measurement(arrays["time_s"].astype(float), arrays["temperature/thermometer_c"].astype(float),
                     arrays["output/output_g"].astype(float), arrays["test/applied_g"].astype(float),
                     arrays["test/run_index"].astype(np.int16), arrays["test/power_on"].astype(bool), True, [str(path)])
