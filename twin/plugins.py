@@ -22,9 +22,9 @@ def import_plugin(spec: str, base_dir: str | Path = ".", error: type[TwinError] 
     A file is imported once per resolved path; a failure while it loads is reported as ``error``
     with the exception's type and message, in one line, and leaves nothing in ``sys.modules``.
     """
-    given = Path(spec) if Path(spec).is_absolute() else Path(base_dir) / spec
-    if not spec.endswith(".py") and ("/" in spec or given.exists()):  # a path, but not to a .py file
-        what = "a folder" if given.is_dir() else "not a .py file" if given.exists() else "not found"
+    path = Path(spec) if Path(spec).is_absolute() else Path(base_dir) / spec
+    if not spec.endswith(".py") and ("/" in spec or path.exists()):  # a path, but not to a .py file
+        what = "a folder" if path.is_dir() else "not a .py file" if path.exists() else "not found"
         raise error(f"plugin {spec}: {what}; expected a .py file or a module name")
     if not spec.endswith(".py"):
         try:
@@ -35,8 +35,6 @@ def import_plugin(spec: str, base_dir: str | Path = ".", error: type[TwinError] 
             raise
         except (Exception, SystemExit) as exc:  # its own failure while loading, named in one line
             raise error(f"plugin module {spec!r} failed to load: {type(exc).__name__}: {exc}") from None
-    path = Path(spec)
-    path = path if path.is_absolute() else Path(base_dir) / path
     if not path.is_file():
         raise error(f"plugin {path}: is a folder; expected a .py file" if path.is_dir() else f"plugin file not found: {path}")
     mod_name = f"twin_plugin_{path.stem}_{abs(hash(str(path.resolve()))) % 10**8}"
