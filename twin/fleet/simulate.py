@@ -20,7 +20,6 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from twin.errors import TwinError
 from twin.fleet.spec import FleetError
 from twin.io import atomic_write_text, read_text
 from twin.text import did_you_mean, load_yaml_mapping
@@ -168,8 +167,7 @@ def _check_plain(data: dict, at) -> None:
 def _probe_ends(fs: FleetScenario, at) -> None:
     """Each end of a uniform / loguniform draw and each choice, put into unit 0, gives a valid
     scenario: a bad value is refused now, not found by whichever unit draws it mid-run."""
-    from twin.model.scenario import parse_scenario
-    from twin.studies.design import set_path
+    from twin.studies.design import scenario_error
 
     unit0, _ = draw_unit(fs, 0)
     groups = [(("vary",), {}, fs.vary)] + [(("effects", n, "draw"), e.get("set") or {}, e.get("draw") or {})
@@ -178,15 +176,10 @@ def _probe_ends(fs: FleetScenario, at) -> None:
         for key, spec in draws.items():
             kind, args = next(iter(spec.items())) if isinstance(spec, dict) else ("normal", [])
             for value in (args[:100] if kind != "normal" else []):
-                data = copy.deepcopy(unit0)
-                for k, v in {**fixed, key: value}.items():
-                    set_path(data, k, v)
-                try:
-                    parse_scenario(yaml.safe_dump(data, sort_keys=False), "<unit>")
-                except TwinError as exc:
-                    detail = str(exc).split(": ", 1)[-1]
+                detail = scenario_error(unit0, {**fixed, key: value})
+                if detail is not None:
                     raise FleetError(f"{at(*loc, key)}: {'.'.join(loc)}.{key}: {kind} value {value!r} gives an "
-                                     f"invalid unit: {detail}") from None
+                                     f"invalid unit: {detail}")
 
 
 def family_of(name: str, entry: dict) -> str:

@@ -32,6 +32,23 @@ def set_path(data: dict, dotted: str, value) -> None:
         node[keys[-1]] = value
 
 
+def scenario_error(base: dict, assignments: dict) -> str | None:
+    """Why ``base`` with ``assignments`` (dotted path → value, :func:`set_path`) is not a valid
+    scenario (the message after its location), or ``None`` when it is valid."""
+    from twin.errors import TwinError
+    from twin.model.scenario import parse_scenario
+
+    data = copy.deepcopy(base)
+    for path, value in assignments.items():
+        set_path(data, path, value)
+    try:
+        parse_scenario(yaml.safe_dump(data, sort_keys=False), "<scenario>")
+    except TwinError as exc:
+        text = str(exc)
+        return text.split(": ", 1)[-1] if text.startswith("<scenario>") else text
+    return None
+
+
 def design_points(study: Study) -> list[dict]:
     """Factor settings of every design point (replicates not included)."""
     names = list(study.factors)
