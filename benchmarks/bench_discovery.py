@@ -89,7 +89,7 @@ def run_one(args):
         case, gen = draw_case(kind, seed, "clear"), None
     else:
         oc = draw_outside(kind, seed)
-        case, gen = oc.case, oc.generating_kind
+        case, gen = oc.case, list(oc.generating_kinds)
     d, r = compare_measurement(case.twin, case.measurement, [])
     floor = d.noise_floor_g
     before = d.finding.lower()
@@ -124,7 +124,7 @@ def run_one(args):
         out["baseline_omp_proposes"] = _baseline_omp(d)
     except Exception as exc:  # the baseline must not sink the benchmark
         out["baseline_error"] = f"{type(exc).__name__}: {exc}"
-    out["generating_kind"] = gen
+    out["generating_kinds"] = gen
     out["family"] = getattr(case, "family", None)
     return kind, out
 
@@ -147,10 +147,10 @@ def summarise(kind: str, rows: list[dict]) -> dict:
          "baseline_omp_proposes": rate(sum(bool(r.get("baseline_omp_proposes")) for r in rows))}
     if kind in OUTSIDE:
         s["after_le_1.05_noise"] = rate(sum(r["proposed"] and r["after_over_noise"] <= 1.05 for r in rows))
-        held = [r["proposed"] and (r["generating_kind"] in r["kinds"] or r.get("corr_with_truth", 0) >= 0.95)
-                for r in rows]
+        matched = [r["proposed"] and bool(set(r["generating_kinds"]) & set(r["kinds"])) for r in rows]
+        held = [m or (r["proposed"] and r.get("corr_with_truth", 0) >= 0.95) for m, r in zip(matched, rows)]
         s["holds_generating_feature"] = rate(sum(held))
-        s["kind_matched"] = rate(sum(r["proposed"] and r["generating_kind"] in r["kinds"] for r in rows))
+        s["kind_matched"] = rate(sum(matched))
         viol = [r for r in rows if r["rms_over_floor"] > 1.1 and (r["no_missing_before"] or r["no_missing_after"])]
         s["honesty_violations"] = len(viol)
         s["rms_over_floor_median"] = float(np.median([r["rms_over_floor"] for r in rows]))

@@ -51,7 +51,7 @@ def test_discovery_finds_the_generating_term_and_reaches_the_noise(discovered, k
     assert disc.rms_predicted_g <= 1.05 * oc.case.noise_only_rms_g
     kinds = [t.spec.kind for t in disc.terms]
     # the generating feature, or an equivalent one (correlation ≥ 0.95 on the data, the issue's bar)
-    assert oc.generating_kind in kinds or _projected_corr(d, disc.contribution_g, oc.case.hidden_g) >= 0.95
+    assert set(oc.generating_kinds) & set(kinds) or _projected_corr(d, disc.contribution_g, oc.case.hidden_g) >= 0.95
     assert disc.heldout_gain > 0.05 and disc.features_tried > 50
     assert r["discovery"]["equation"].startswith("bias = ") and "Discovery" in r["finding"]
 
@@ -76,6 +76,30 @@ def test_plugin_round_trip_reaches_the_predicted_rms(discovered):
     # the issue's bar: within 2 % of what the discovery predicted
     assert abs(r2["rms_residual_g"] / d.discovery.rms_predicted_g - 1) <= 0.02
     assert names[0] in r2["effects"] and not r2["missing_effect_detected"]
+
+
+@pytest.mark.parametrize("seed", [20004, 20011, 20017])
+def test_limit_cycle_period_and_holds_recovered_from_the_temperature(seed):
+    """The period the dictionary's fitted sine uses is the generator's (known truth) to 2 %, periods
+    of 530–720 s included (the median forms missed those), and no hold is split by the cycle."""
+    from twin.diagnosis.discover_features import holds, block_inputs, oscillation_period_s
+
+    oc = draw_outside("controller_oscillation", seed)
+    m = oc.case.measurement
+    b, _ = block_inputs(m.time_s, m.temperature_c, m.run_index, None, 10.0)
+    assert oscillation_period_s(b) == pytest.approx(oc.truth["period_s"], rel=0.02)
+    # the chamber program holds 4 set-points per run (two runs); every hold at least 15 min
+    lengths = [b.time_s[h][-1] - b.time_s[h][0] for h in holds(b)]
+    assert len(lengths) == 8 and min(lengths) > 900, lengths
+
+
+def test_limit_cycle_longer_than_half_a_hold_reaches_the_noise():
+    """Seed 20002 (a 693-s cycle in 930–1950-s holds): 1.075× the noise-only RMS with the median forms alone."""
+    oc = draw_outside("controller_oscillation", seed=20002)
+    d, r = compare_measurement(oc.case.twin, oc.case.measurement, [])
+    discover_into(d, r, None)
+    assert "hold_sine" in [t.spec.kind for t in d.discovery.terms]
+    assert d.discovery.rms_predicted_g <= 1.05 * oc.case.noise_only_rms_g  # the issue's bar
 
 
 def test_null_with_coloured_noise_proposes_nothing_and_says_no_missing_effect():

@@ -12,7 +12,9 @@ play-operator offsets p_w(T) − T (Visintin, *Differential Models of Hysteresis
 exp(−t_on/τ) after each power-on; exp(−s/τ)·ΔT_last after each temperature change (a Maxwell
 relaxation, Findley et al., *Creep and Relaxation of Nonlinear Viscoelastic Materials*, ch. 5);
 smooth steps ½(1 + tanh((T − Tc)/w)); the short oscillation T − median_w(T) (a median filter
-keeps ramps and their corners, so only the controller's limit cycle remains); slow trends t, t².
+keeps ramps and their corners, so only the controller's limit cycle remains); the limit cycle fitted
+in each hold as a sinusoid at the log's own period with a cubic baseline (the median forms take in the
+approach or the next ramp when a hold lasts under two periods); slow trends t, t².
 """
 
 from __future__ import annotations
@@ -34,6 +36,9 @@ CHANGE_TAUS_S = (300.0, 1200.0, 3600.0)
 STEP_WIDTHS_C = (0.5, 2.0)
 STEP_SPACING_C = 5.0
 OSC_WINDOWS_S = (300.0, 600.0, 1200.0)
+OSC_PERIODS_S = (120.0, 1800.0)  # band searched for the controller's limit cycle
+RAMP_MIN_S = 180.0  # a ramp lasts longer than this; shorter excursions of the median are the limit cycle
+HOLD_SMOOTH_S = 1200.0  # holds are found on a median this long: the limit cycle's own rate is not a ramp
 RATE_THRESHOLD_C_PER_MIN = 0.1  # |dT/dt| below this is a dwell (end of a temperature change)
 
 
@@ -140,6 +145,68 @@ def _oscillation(b: BlockInputs, window_s: float) -> np.ndarray:
     return _per_run(b, lambda s: b.temp_c[s] - median_filter(b.temp_c[s], size=w, mode="nearest"))
 
 
+def holds(b: BlockInputs) -> list[slice]:
+    """Stretches where the set-point holds: everything but the ramps, a ramp being |dT/dt| of the
+    temperature's 20-min running median above :data:`RATE_THRESHOLD_C_PER_MIN` for longer than
+    :data:`RAMP_MIN_S` (the limit cycle alone can reach 0.5 °C/min, but not for that long)."""
+    w = max(3, int(round(HOLD_SMOOTH_S / b.dt_s)) | 1)
+    min_ramp = max(1, int(round(RAMP_MIN_S / b.dt_s)))
+    out = []
+    for s in run_slices(b.run):
+        if s.stop - s.start < 3:
+            continue
+        smooth = uniform_filter1d(median_filter(b.temp_c[s], size=w, mode="nearest"), 6, mode="nearest")
+        moving = np.abs(np.gradient(smooth, b.time_s[s]) * 60.0) >= RATE_THRESHOLD_C_PER_MIN
+        edges = np.flatnonzero(np.diff(np.r_[0, moving.astype(np.int8), 0]))
+        for i, j in zip(edges[::2], edges[1::2]):
+            if j - i < min_ramp:
+                moving[i:j] = False
+        edges = np.flatnonzero(np.diff(np.r_[0, (~moving).astype(np.int8), 0]))
+        out += [slice(s.start + i, s.start + j) for i, j in zip(edges[::2], edges[1::2])]
+    return out
+
+
+def _hold_designs(b: BlockInputs, min_s: float) -> list[tuple[slice, np.ndarray]]:
+    """Each hold of at least ``min_s`` with its cubic baseline (the approach to the set-point)."""
+    out = []
+    for h in holds(b):
+        t = b.time_s[h]
+        if t.size >= 8 and t[-1] - t[0] >= min_s:
+            u = (t - t[0]) / (t[-1] - t[0]) * 2 - 1
+            out.append((h, np.column_stack([np.ones_like(u), u, u * u, u ** 3])))
+    return out
+
+
+def _sine_fit(b: BlockInputs, period_s: float, holds) -> tuple[np.ndarray, float]:
+    """The sinusoid at ``period_s`` fitted with each hold's baseline, and the residual sum of squares."""
+    out, rss, w = np.zeros_like(b.temp_c), 0.0, 2 * np.pi / period_s
+    for h, base in holds:
+        t = b.time_s[h]
+        A = np.column_stack([base, np.sin(w * t), np.cos(w * t)])
+        coef = np.linalg.lstsq(A, b.temp_c[h], rcond=None)[0]
+        out[h] = A[:, -2:] @ coef[-2:]
+        rss += float(np.sum((b.temp_c[h] - A @ coef) ** 2))
+    return out, rss
+
+
+def _hold_sine(b: BlockInputs, period_s: float) -> np.ndarray:
+    """The temperature's sinusoid at ``period_s`` in each hold longer than half a period, fitted
+    jointly with a cubic baseline; zero outside holds."""
+    return _sine_fit(b, period_s, _hold_designs(b, 0.5 * period_s))[0]
+
+
+def oscillation_period_s(b: BlockInputs) -> float | None:
+    """The period of the temperature's short oscillation in the holds: the one of
+    :data:`OSC_PERIODS_S` (log grid) whose per-hold sinusoid + cubic baseline leaves the least
+    residual (nonlinear least squares by grid search); None without holds long enough."""
+    holds = _hold_designs(b, OSC_PERIODS_S[1]) if b.temp_c.size else []
+    if not holds:
+        return None
+    periods = np.geomspace(*OSC_PERIODS_S, 240)
+    rss = [_sine_fit(b, p, holds)[1] for p in periods]
+    return float(periods[int(np.argmin(rss))])
+
+
 def block_feature(spec: FeatureSpec, b: BlockInputs) -> np.ndarray:
     """The feature on the block grid."""
     dT, R = b.temp_c - T_REF_C, b.rate_c_per_min
@@ -166,6 +233,8 @@ def block_feature(spec: FeatureSpec, b: BlockInputs) -> np.ndarray:
         return 0.5 * (1 + np.tanh((b.temp_c - spec.p("at_c")) / spec.p("width_c")))
     if k == "oscillation":
         return _oscillation(b, spec.p("window_s"))
+    if k == "hold_sine":
+        return _hold_sine(b, spec.p("period_s"))
     if k == "trend":
         return ((b.time_s - b.time_s[0]) / 3600.0) ** int(spec.p("n"))
     raise ValueError(f"unknown feature kind {k!r}")
@@ -205,5 +274,8 @@ def dictionary(b: BlockInputs) -> list[FeatureSpec]:
         specs += [_spec("step", f"step(T > {at:g} °C, w {w:g} °C)", "1", at_c=float(at), width_c=w)
                   for w in STEP_WIDTHS_C]
     specs += [_spec("oscillation", f"(T − median_{w:g}s(T))", "°C", window_s=w) for w in OSC_WINDOWS_S]
+    period = oscillation_period_s(b)
+    if period is not None:
+        specs.append(_spec("hold_sine", f"sine_{period:.0f}s(T) in holds", "°C", period_s=round(period, 1)))
     specs += [_spec("trend", "t" if n == 1 else f"t^{n}", "h" if n == 1 else f"h^{n}", n=n) for n in (1, 2)]
     return specs

@@ -95,7 +95,7 @@ CATALOGUE: dict[str, tuple[Mechanism, ...]] = {
 FEATURE_FAMILY = {"rate": "thermal_lag", "lag": "thermal_lag", "abs_rate": "thermal_lag", "rate2": "thermal_lag",
                   "temp_rate": "thermal_lag", "since_change": "hysteresis", "play": "hysteresis",
                   "power_on": "warmup", "trend": "aging", "power": "bias_tc", "step": "bias_tc",
-                  "oscillation": "thermal_lag"}
+                  "oscillation": "thermal_lag", "hold_sine": "thermal_lag"}
 
 
 def lookalikes(family: str, effect: str | None = None) -> list[Mechanism]:

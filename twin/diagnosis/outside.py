@@ -30,9 +30,9 @@ from scipy.ndimage import gaussian_filter1d
 from twin.arrays import run_slices
 from twin.diagnosis.hidden import LEVEL_BANDS, Case, detectable_ratio, draw_case
 
-#: case → the dictionary feature kind that generates it (None: nothing to find)
-OUTSIDE_CASES = {"rate_squared": "rate2", "threshold_step": "step", "temp_rate": "temp_rate",
-                 "controller_oscillation": "oscillation", "null_coloured": None}
+#: case → the dictionary feature kinds that generate it (empty: nothing to find)
+OUTSIDE_CASES = {"rate_squared": ("rate2",), "threshold_step": ("step",), "temp_rate": ("temp_rate",),
+                 "controller_oscillation": ("oscillation", "hold_sine"), "null_coloured": ()}
 
 
 @dataclass
@@ -40,7 +40,7 @@ class OutsideCase:
     kind: str
     seed: int
     case: Case  # measurement, twin, noise-only RMS; ``hidden_g`` is the added term
-    generating_kind: str | None
+    generating_kinds: tuple[str, ...]
     truth: dict
 
 
@@ -88,7 +88,7 @@ def draw_outside(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.
         m.output_g = m.output_g + extra
         base.noise_g = base.noise_g + extra
         base.noise_only_rms_g = float(np.sqrt(np.mean(base.noise_g ** 2)))
-        return OutsideCase(kind, seed, base, None, truth)
+        return OutsideCase(kind, seed, base, (), truth)
     if kind == "rate_squared":
         shape = rate ** 2
     elif kind == "threshold_step":
