@@ -24,7 +24,7 @@ from scipy import stats
 from twin.diagnosis.calibrate import Calibration
 from twin.diagnosis.discover_features import FeatureSpec, block_feature, block_inputs, dictionary, feature_full
 from twin.diagnosis.linalg import novelty, orthonormal_basis
-from twin.diagnosis.noise import fit_ar
+from twin.diagnosis.noise import fit_ar, fit_walk_ar
 from twin.diagnosis.problem import Problem, cv_folds
 from twin.diagnosis.screen import CandidateResult
 
@@ -83,11 +83,14 @@ class _Test:
     half: np.ndarray
 
 
-def gls_test(D: np.ndarray, X: np.ndarray, y: np.ndarray, seg: np.ndarray, max_order: int) -> _Test:
-    """F-test of X on top of D, AR noise model estimated under the alternative (as screening)."""
+def gls_test(D: np.ndarray, X: np.ndarray, y: np.ndarray, seg: np.ndarray, max_order: int, walk: bool = False) -> _Test:
+    """F-test of X on top of D, AR noise model estimated under the alternative (as screening);
+    with ``walk`` the noise model may hold a random walk (:func:`~twin.diagnosis.noise.fit_walk_ar`)."""
     A1 = np.column_stack([D, X])
-    r1 = y - A1 @ np.linalg.lstsq(A1, y, rcond=None)[0]
-    ar = fit_ar(r1, seg, max_order)
+    if walk:
+        ar = fit_walk_ar(A1, y, seg, max_order)
+    else:
+        ar = fit_ar(y - A1 @ np.linalg.lstsq(A1, y, rcond=None)[0], seg, max_order)
     Dw, Xw, yw = ar.prewhiten(D, seg), ar.prewhiten(X, seg), ar.prewhiten(y, seg)
     Q = orthonormal_basis(Dw)
     r0 = yw - Q @ (Q.T @ yw)
@@ -192,6 +195,13 @@ def discover(problem: Problem, cal: Calibration, selected: list[CandidateResult]
         total_dbic += t.delta_bic
     if not chosen:
         out.reason = f"no term of {K} passes p_adj < {cfg.alpha} and ΔBIC > {cfg.min_delta_bic:g} on the search blocks"
+        return out
+    # the terms together, a random walk allowed in the noise (a walk drifting one way looks like trends);
+    # on every block, runs unbroken: a walk restarted at each search stretch would not be a walk
+    t = gls_test(J, F[:, chosen], y, problem.run_avg, cfg.max_ar_order, walk=True)
+    if not (min(1.0, t.p_value * K * len(chosen)) < cfg.alpha and t.delta_bic > cfg.min_delta_bic):
+        out.reason = (f"the terms found (ΔBIC {total_dbic:.0f}) are no longer significant when the noise model may hold "
+                      f"a random walk (ΔBIC {t.delta_bic:.0f}): slow drift of the bias, not a missing effect")
         return out
     # held-out gain: coefficients from the search blocks, errors on the others
     val = ~search

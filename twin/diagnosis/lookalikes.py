@@ -15,6 +15,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 
+RANDOM_WALK = "bias random walk of the sensor"
+
 @dataclass(frozen=True)
 class Mechanism:
     name: str
@@ -48,6 +50,8 @@ _RELAX = (
     Mechanism("play-type hysteresis (friction, stiction of the package)", "thermal_hysteresis",
               "stress stored by a slip at the interfaces remembers the path, independent of rate",
               "a second ramp rate and reversals of different size: play widths stay fixed, creep decays"),
+    Mechanism(RANDOM_WALK, None, "slow noise, not physics: a walk wanders for hours as creep relaxes",
+              "repeat the cycle: creep relaxes again after every temperature change, a random walk does not"),
 )
 
 #: family → mechanisms that share its signature
@@ -76,7 +80,7 @@ CATALOGUE: dict[str, tuple[Mechanism, ...]] = {
                   "repeat identical cycles days apart"),
         Mechanism("moisture desorption or uptake", None, "the mould's water content drifts with the room's humidity",
                   "log humidity or a dry purge; a bake resets it"),
-        Mechanism("bias random walk of the sensor", None, "slow noise, not physics: it does not repeat",
+        Mechanism(RANDOM_WALK, None, "slow noise, not physics: it does not repeat",
                   "repeat the test: a physical drift repeats, a random walk does not"),
     ),
     "warmup": (
@@ -96,6 +100,11 @@ FEATURE_FAMILY = {"rate": "thermal_lag", "lag": "thermal_lag", "abs_rate": "ther
                   "temp_rate": "thermal_lag", "since_change": "hysteresis", "play": "hysteresis",
                   "power_on": "warmup", "trend": "aging", "power": "bias_tc", "step": "bias_tc",
                   "oscillation": "thermal_lag", "hold_sine": "thermal_lag"}
+
+
+def mimicked_by_random_walk(family: str) -> bool:
+    """Whether a bias random walk is among the family's look-alikes (its test then allows one in the noise)."""
+    return any(m.name == RANDOM_WALK for m in CATALOGUE.get(family, ()))
 
 
 def lookalikes(family: str, effect: str | None = None) -> list[Mechanism]:

@@ -121,6 +121,64 @@ def fit_ar(x: np.ndarray, run_index: np.ndarray, max_order: int = 20) -> ARModel
     return best
 
 
+#: walk filter parameters tried: θ = 1 − √q for a walk-to-white variance ratio q per block
+WALK_THETAS = (1.0, 0.995, 0.99, 0.98, 0.96, 0.93, 0.9, 0.85, 0.8, 0.7)
+
+
+def walk_filter(x: np.ndarray, run_index: np.ndarray, theta: float) -> np.ndarray:
+    """(1 − B)/(1 − θB) per run: whitens white noise plus a random walk (the local-level model,
+    an ARIMA(0,1,1); Harvey, *Forecasting, Structural Time Series Models and the Kalman Filter*,
+    §2.3.2). θ = 1 is the identity; a unit lower-triangular map, so it leaves the likelihood's
+    determinant alone and models with different θ compare by their residuals."""
+    x = np.asarray(x, float)
+    if theta >= 1.0:
+        return x
+    out = np.empty_like(x)
+    for run in run_slices(run_index):
+        out[run] = lfilter([1.0, -1.0], [1.0, -theta], x[run], axis=0)
+    return out
+
+
+@dataclass
+class WalkARModel:
+    """Noise = random walk + AR(p): the walk filter with ``theta`` (1: no walk), then ``ar``."""
+
+    theta: float
+    ar: ARModel
+
+    def prewhiten(self, x: np.ndarray, run_index: np.ndarray) -> np.ndarray:
+        return self.ar.prewhiten(walk_filter(x, run_index, self.theta), run_index)
+
+
+def fit_walk_ar(A: np.ndarray, y: np.ndarray, run_index: np.ndarray, max_order: int = 20) -> WalkARModel:
+    """The walk + AR noise model of ``y`` about the regression on ``A``, θ chosen by restricted
+    (REML) likelihood with a BIC penalty on the walk and the AR order.
+
+    The restricted likelihood counts the regressors' own log det(AᵀΣ⁻¹A) (Harville, *JASA* 72,
+    1977, §4), so a trend in ``A`` does not hide the walk that looks like it: a plain likelihood of
+    the residual after fitting the trend underestimates the walk exactly when it drifts one way.
+    """
+    A = np.asarray(A, float).reshape(len(y), -1)
+    r_ols = y - A @ np.linalg.lstsq(A, y, rcond=None)[0]
+    n, k = A.shape
+    best, best_crit = None, np.inf
+    for theta in WALK_THETAS:
+        ar = fit_ar(walk_filter(r_ols, run_index, theta), run_index, max_order)
+        model = WalkARModel(theta, ar)
+        Aw, yw = model.prewhiten(A, run_index), model.prewhiten(y, run_index)
+        rss = float(np.sum((yw - Aw @ np.linalg.lstsq(Aw, yw, rcond=None)[0]) ** 2))
+        sign, logdet = np.linalg.slogdet(Aw.T @ Aw)
+        if rss <= 0 or sign <= 0:
+            continue
+        # the first p innovations of each run have their own variances (ARModel.prewhiten rescales them)
+        head = sum(np.log(s2 / ar.sigma2) for run in run_slices(run_index)
+                   for _, s2 in ar.partial[: run.stop - run.start]) if ar.sigma2 > 0 else 0.0
+        crit = (n - k) * np.log(rss / (n - k)) + head + logdet + (ar.order + (theta < 1)) * np.log(n)
+        if crit < best_crit:
+            best, best_crit = model, crit
+    return best if best is not None else WalkARModel(1.0, fit_ar(r_ols, run_index, max_order))
+
+
 def white_noise_sigma_from_differences(r: np.ndarray, run_index: np.ndarray) -> float:
     """σ of the white part of a residual from its first differences: √(mean(Δr²)/2).
 
