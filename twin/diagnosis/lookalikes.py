@@ -50,8 +50,6 @@ _RELAX = (
     Mechanism("play-type hysteresis (friction, stiction of the package)", "thermal_hysteresis",
               "stress stored by a slip at the interfaces remembers the path, independent of rate",
               "a second ramp rate and reversals of different size: play widths stay fixed, creep decays"),
-    Mechanism(RANDOM_WALK, None, "slow noise, not physics: a walk wanders for hours as creep relaxes",
-              "repeat the cycle: creep relaxes again after every temperature change, a random walk does not"),
 )
 
 #: family → mechanisms that share its signature
