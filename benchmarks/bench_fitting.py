@@ -60,7 +60,7 @@ def data(quick: bool):
     return m, train, test, noise
 
 
-def best_rate(fn, evals_per_call, repeat=3):
+def best_rate(fn, evals_per_call, repeat=5):
     fn()
     t = min(_timed(fn) for _ in range(repeat))
     return evals_per_call / t

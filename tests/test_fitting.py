@@ -72,6 +72,28 @@ def test_population_evaluation_equals_one_by_one(activation, dtype, rtol):
     assert n_parameters(4, 10) == pop.shape[1] == 61
 
 
+def test_block_chunk_fits_the_l2_cache_in_powers_of_two():
+    from fitting.network import block_chunk
+
+    # 500 rows (50 networks × 10 hidden) of float32: 2 KB per sample
+    assert block_chunk(500, 4, 2 << 20) == 1024  # 2 MB L2 (the Intel Xeon measured): 1024 × 2 KB = 2 MB
+    assert block_chunk(500, 4, 512 << 10) == 256  # 512 KB: 256, also the floor
+    assert block_chunk(500, 4, 32 << 20) == 16384 and block_chunk(500, 8, 2 << 20) == 512
+    assert block_chunk(500, 4, 3 << 20) == 1024  # 1536 samples would fit: the power of two below
+
+
+def test_population_mse_does_not_depend_on_the_chunk():
+    import torch
+
+    rng = np.random.default_rng(1)
+    X = torch.as_tensor(rng.normal(size=(5000, 4)))
+    y = torch.as_tensor(rng.normal(size=5000))
+    pop = torch.as_tensor(init_weights(4, 10, rng, size=20))
+    ref = population_mse(pop, X, y, 10, chunk=5000).numpy()
+    for chunk in (256, 1024, None):  # None: the cache-sized default
+        np.testing.assert_allclose(population_mse(pop, X, y, 10, chunk=chunk).numpy(), ref, rtol=1e-12)
+
+
 @pytest.mark.parametrize("activation", ["tanh", "relu", "sigmoid"])
 def test_analytic_gradient_equals_autograd(activation):
     import torch
