@@ -89,9 +89,10 @@ def run_in_process(argv) -> tuple[int, str, str]:
     return code, out.getvalue(), err.getvalue()
 
 
-def run_cli(*args: str, cwd: Path | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
-    """Run ``twin`` as a user would (a fresh process)."""
-    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+def run_cli(*args: str, cwd: Path | None = None, timeout: float = 300,
+            warnings: str = "ignore") -> subprocess.CompletedProcess:
+    """Run ``twin`` as a user would (a fresh process); ``warnings``: its PYTHONWARNINGS ("default" shows them)."""
+    env = {**os.environ, "PYTHONWARNINGS": warnings}
     return subprocess.run([sys.executable, "-m", "twin.cli", *args], capture_output=True, text=True,
                           cwd=cwd or ROOT, env=env, timeout=timeout)
 

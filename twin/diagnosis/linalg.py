@@ -75,8 +75,10 @@ def closest_column(A: np.ndarray, j: int, others: list[int], labels: list[str]) 
     Returns
     -------
     str
-        The label, or ``"the offsets"`` when ``others`` is empty.
+        The label, or ``"the offsets"`` when ``others`` is empty or column ``j`` is constant.
     """
+    if np.std(A[:, j]) == 0:  # a constant column has no correlation to rank: it is an offset
+        return "the offsets"
     corr = [abs(np.corrcoef(A[:, j], A[:, k])[0, 1]) if np.std(A[:, k]) > 0 else 0.0 for k in others]
     return labels[others[int(np.argmax(corr))]] if corr else "the offsets"
 
