@@ -49,7 +49,7 @@ def forward(theta, X, hidden: int, activation: str = "tanh"):
     return (torch.matmul(H, W2) + b2).squeeze(2)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def l2_cache_bytes(default: int = 1 << 20) -> int:
     """Size of the CPU's level-2 cache (Linux sysfs), ``default`` where it cannot be read."""
     from pathlib import Path

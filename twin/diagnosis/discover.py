@@ -19,14 +19,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 from twin.diagnosis.calibrate import Calibration
 from twin.diagnosis.discover_features import FeatureSpec, block_feature, block_inputs, dictionary, feature_full
 from twin.diagnosis.linalg import novelty, orthonormal_basis
-from twin.diagnosis.noise import fit_ar, fit_walk_ar
+from twin.diagnosis.noise import fit_ar
 from twin.diagnosis.problem import Problem, cv_folds
-from twin.diagnosis.screen import CandidateResult
+from twin.diagnosis.screen import CandidateResult, CandidateTest, gls_test
 
 SEARCH_FOLDS = (0, 1, 2)
 MAX_TERMS = 3
@@ -73,38 +72,6 @@ class Discovery:
                 "features_tried": self.features_tried, "heldout_gain": self.heldout_gain, "delta_bic": self.delta_bic,
                 "rms_before_g": self.rms_before_g, "rms_predicted_g": self.rms_predicted_g, "beaten": self.beaten,
                 "preferred_library": self.preferred_library, "average_s": self.average_s}
-
-
-@dataclass
-class _Test:
-    delta_bic: float
-    p_value: float
-    coef: np.ndarray
-    half: np.ndarray
-
-
-def gls_test(D: np.ndarray, X: np.ndarray, y: np.ndarray, seg: np.ndarray, max_order: int, walk: bool = False) -> _Test:
-    """F-test of X on top of D, AR noise model estimated under the alternative (as screening);
-    with ``walk`` the noise model may hold a random walk (:func:`~twin.diagnosis.noise.fit_walk_ar`)."""
-    A1 = np.column_stack([D, X])
-    if walk:
-        ar = fit_walk_ar(A1, y, seg, max_order)
-    else:
-        ar = fit_ar(y - A1 @ np.linalg.lstsq(A1, y, rcond=None)[0], seg, max_order)
-    Dw, Xw, yw = ar.prewhiten(D, seg), ar.prewhiten(X, seg), ar.prewhiten(y, seg)
-    Q = orthonormal_basis(Dw)
-    r0 = yw - Q @ (Q.T @ yw)
-    Xp = Xw - Q @ (Q.T @ Xw)
-    coef = np.linalg.lstsq(Xp, r0, rcond=None)[0]
-    fit = Xp @ coef
-    rss0 = float(r0 @ r0)
-    rss1 = max(rss0 - float(fit @ fit), 1e-300)
-    n, m = yw.size, X.shape[1]
-    dof = max(1, n - Q.shape[1] - m)
-    F = ((rss0 - rss1) / m) / (rss1 / dof)
-    cov = rss1 / dof * np.linalg.pinv(Xp.T @ Xp)
-    return _Test(float(n * np.log(rss0 / rss1) - m * np.log(n)), float(stats.f.sf(F, m, dof)), coef,
-                 1.96 * np.sqrt(np.clip(np.diag(cov), 0, None)))
 
 
 def _segments(mask: np.ndarray, run: np.ndarray) -> np.ndarray:
@@ -165,7 +132,7 @@ def discover(problem: Problem, cal: Calibration, selected: list[CandidateResult]
     seg = _segments(search, problem.run_avg)
     Js, ys, Fs = J[search], y[search], F[search]
     chosen: list[int] = []
-    tests: list[_Test] = []
+    tests: list[CandidateTest] = []
     total_dbic = 0.0
     for step in range(MAX_TERMS):
         D = np.column_stack([Js, Fs[:, chosen]]) if chosen else Js
@@ -191,7 +158,7 @@ def discover(problem: Problem, cal: Calibration, selected: list[CandidateResult]
         if not (p_adj < cfg.alpha and t.delta_bic > cfg.min_delta_bic):
             break
         chosen.append(best)
-        tests.append(_Test(t.delta_bic, p_adj, t.coef, t.half))
+        tests.append(CandidateTest(t.delta_bic, p_adj, t.explained_fraction, t.coef, t.half_width))
         total_dbic += t.delta_bic
     if not chosen:
         out.reason = f"no term of {K} passes p_adj < {cfg.alpha} and ΔBIC > {cfg.min_delta_bic:g} on the search blocks"
@@ -200,8 +167,8 @@ def discover(problem: Problem, cal: Calibration, selected: list[CandidateResult]
     # on every block, runs unbroken: a walk restarted at each search stretch would not be a walk
     t = gls_test(J, F[:, chosen], y, problem.run_avg, cfg.max_ar_order, walk=True)
     if not (min(1.0, t.p_value * K * len(chosen)) < cfg.alpha and t.delta_bic > cfg.min_delta_bic):
-        out.reason = (f"the terms found (ΔBIC {total_dbic:.0f}) are no longer significant when the noise model may hold "
-                      f"a random walk (ΔBIC {t.delta_bic:.0f}): slow drift of the bias, not a missing effect")
+        out.reason = (f"the terms found (ΔBIC {total_dbic:.0f}) are not significant once the noise model may hold a "
+                      f"bias random walk (ΔBIC {t.delta_bic:.0f}): a slow drift of the bias explains them as well")
         return out
     # held-out gain: coefficients from the search blocks, errors on the others
     val = ~search
@@ -228,7 +195,7 @@ def discover(problem: Problem, cal: Calibration, selected: list[CandidateResult]
     k = J.shape[1]
     out.contribution_g = Ff @ beta[k:]
     out.rms_predicted_g = float(np.sqrt(np.mean((y_full - X_full @ beta[:k] - out.contribution_g) ** 2)))
-    out.terms = [Term(specs[j], float(beta[k + i] * 1e3), float(tests[i].half[0] * 1e3) if i < len(tests) else 0.0,
+    out.terms = [Term(specs[j], float(beta[k + i] * 1e3), float(tests[i].half_width[0] * 1e3) if i < len(tests) else 0.0,
                       tests[i].delta_bic, tests[i].p_value) for i, j in enumerate(chosen)]
     out.proposed = True
     out.reason = "structure explained by a term outside the library"

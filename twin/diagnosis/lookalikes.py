@@ -15,7 +15,9 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 
+#: the look-alike whose families' tests allow a random walk in the noise model (screen.py)
 RANDOM_WALK = "bias random walk of the sensor"
+
 
 @dataclass(frozen=True)
 class Mechanism:

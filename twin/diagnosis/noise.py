@@ -121,7 +121,7 @@ def fit_ar(x: np.ndarray, run_index: np.ndarray, max_order: int = 20) -> ARModel
     return best
 
 
-#: walk filter parameters tried: θ = 1 − √q for a walk-to-white variance ratio q per block
+#: walk filter parameters tried: θ ≈ 1 − √q for a walk-to-white variance ratio q per block
 WALK_THETAS = (1.0, 0.995, 0.99, 0.98, 0.96, 0.93, 0.9, 0.85, 0.8, 0.7)
 
 

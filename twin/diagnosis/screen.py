@@ -152,6 +152,12 @@ def _temperature_derivative(problem: Problem, cal: Calibration, h: float = 0.5) 
 
 def gls_candidate_test(problem: Problem, J: np.ndarray, y: np.ndarray, X: np.ndarray,
                        max_order: int, walk: bool = False) -> CandidateTest:
+    """:func:`gls_test` of X on top of J inside the problem's runs."""
+    return gls_test(J, X, y, problem.run_avg, max_order, walk)
+
+
+def gls_test(J: np.ndarray, X: np.ndarray, y: np.ndarray, runs: np.ndarray, max_order: int,
+             walk: bool = False) -> CandidateTest:
     """GLS test of X on top of J, the AR noise model estimated under the alternative.
 
     Fitting the AR model to the base residual would let it learn a large missing effect and
@@ -160,13 +166,14 @@ def gls_candidate_test(problem: Problem, J: np.ndarray, y: np.ndarray, X: np.nda
 
     Parameters
     ----------
-    problem : Problem
     J : np.ndarray
         The model's design on averages.
-    y : np.ndarray
-        The target on averages.
     X : np.ndarray
         The candidate's columns on averages.
+    y : np.ndarray
+        The target on averages.
+    runs : np.ndarray
+        Stretch id of each average (prewhitening restarts at each stretch).
     max_order : int
         Largest AR order.
     walk : bool
@@ -178,7 +185,6 @@ def gls_candidate_test(problem: Problem, J: np.ndarray, y: np.ndarray, X: np.nda
         ΔBIC, F p-value, ERR, coefficients, their 95 % half-widths.
     """
     A1 = np.column_stack([J, X])
-    runs = problem.run_avg
     if walk:
         ar = fit_walk_ar(A1, y, runs, max_order)
     else:
