@@ -170,7 +170,7 @@ def main() -> None:
 
     work = Path(a.work)
     work.mkdir(parents=True, exist_ok=True)
-    res: dict = {"units": a.units, "note": "measured under load (2 shared cores)"}
+    res: dict = {"units": a.units, "load_average_1_5_15_min_at_start": list(os.getloadavg())}
     t0 = time.perf_counter()
     sim = simulate_fleet(_fleet_scenario(work, a.units), work / "sim", workers=2)
     res["simulate"] = {"seconds": time.perf_counter() - t0, "written": sim["written"], "rows_per_unit": None}
