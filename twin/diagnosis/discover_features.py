@@ -177,10 +177,11 @@ def _hold_designs(b: BlockInputs, min_s: float) -> list[tuple[slice, np.ndarray]
     return out
 
 
-def _sine_fit(b: BlockInputs, period_s: float, holds) -> tuple[np.ndarray, float]:
-    """The sinusoid at ``period_s`` fitted with each hold's baseline, and the residual sum of squares."""
+def _sine_fit(b: BlockInputs, period_s: float, designs) -> tuple[np.ndarray, float]:
+    """The sinusoid at ``period_s`` fitted with each hold's baseline (``designs`` of
+    :func:`_hold_designs`), and the residual sum of squares."""
     out, rss, w = np.zeros_like(b.temp_c), 0.0, 2 * np.pi / period_s
-    for h, base in holds:
+    for h, base in designs:
         t = b.time_s[h]
         A = np.column_stack([base, np.sin(w * t), np.cos(w * t)])
         coef = np.linalg.lstsq(A, b.temp_c[h], rcond=None)[0]
@@ -198,12 +199,13 @@ def _hold_sine(b: BlockInputs, period_s: float) -> np.ndarray:
 def oscillation_period_s(b: BlockInputs) -> float | None:
     """The period of the temperature's short oscillation in the holds: the one of
     :data:`OSC_PERIODS_S` (log grid) whose per-hold sinusoid + cubic baseline leaves the least
-    residual (nonlinear least squares by grid search); None without holds long enough."""
-    holds = _hold_designs(b, OSC_PERIODS_S[1]) if b.temp_c.size else []
-    if not holds:
+    residual — the generalised Lomb–Scargle periodogram with a polynomial baseline (Zechmeister &
+    Kürster, *A&A* 496, 2009), on holds of at least the longest period; None without one."""
+    designs = _hold_designs(b, OSC_PERIODS_S[1]) if b.temp_c.size else []
+    if not designs:
         return None
     periods = np.geomspace(*OSC_PERIODS_S, 240)
-    rss = [_sine_fit(b, p, holds)[1] for p in periods]
+    rss = [_sine_fit(b, p, designs)[1] for p in periods]
     return float(periods[int(np.argmin(rss))])
 
 
