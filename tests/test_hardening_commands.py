@@ -324,8 +324,13 @@ def test_ctrl_c_turned_into_another_error_is_still_an_interruption(tmp_path, mon
             raise ImportError("initialization failed") from None
 
     monkeypatch.setattr(twin.cli.field, "parse_axes", interrupted_import)
-    (tmp_path / "log.csv").write_text(LOG_ROWS)
-    refused(tmp_path, ["calibrate", "log.csv", "-o", "c.json"], "twin: interrupted", code=130)
+    # a terminal's Ctrl-C: a process started in the background of a script inherits SIGINT ignored
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        (tmp_path / "log.csv").write_text(LOG_ROWS)
+        refused(tmp_path, ["calibrate", "log.csv", "-o", "c.json"], "twin: interrupted", code=130)
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def test_ctrl_c_inside_a_plugin_is_one_line(tmp_path):
