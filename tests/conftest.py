@@ -90,8 +90,9 @@ def run_in_process(argv) -> tuple[int, str, str]:
 
 
 def run_cli(*args: str, cwd: Path | None = None, timeout: float = 300,
-            warnings: str = "ignore") -> subprocess.CompletedProcess:
-    """Run ``twin`` as a user would (a fresh process); ``warnings``: its PYTHONWARNINGS ("default" shows them)."""
+            warnings: str = "default") -> subprocess.CompletedProcess:
+    """Run ``twin`` as a user would (a fresh process), warnings shown as a user sees them: a warning
+    line breaks the one-line promise of a refusal. ``warnings``: its PYTHONWARNINGS."""
     env = {**os.environ, "PYTHONWARNINGS": warnings}
     return subprocess.run([sys.executable, "-m", "twin.cli", *args], capture_output=True, text=True,
                           cwd=cwd or ROOT, env=env, timeout=timeout)

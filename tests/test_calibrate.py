@@ -159,7 +159,7 @@ def test_only_heating_falls_back_to_interleaved_blocks_and_says_so(tmp_path):
 
 def test_compare_three_axes_of_the_tofupilot_log_reports_per_axis_with_orientation_from_the_data(tmp_path):
     r = run_cli("compare", "scenarios/paper_iis328dq.yaml", str(TOFU), *TOFU_OPTS, "--axes", "x,y,z", "--json", "-",
-                "--report", str(tmp_path / "rep"), warnings="default")
+                "--report", str(tmp_path / "rep"))
     assert r.returncode == 0, r.stderr
     result = json.loads(r.stdout)
     imu = result["imus"][0]
