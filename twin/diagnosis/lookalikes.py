@@ -15,8 +15,9 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 
-#: the look-alike whose families' tests allow a random walk in the noise model (screen.py)
+#: slow noise that a drift of hours resembles (screening retests every candidate with it allowed)
 RANDOM_WALK = "bias random walk of the sensor"
+_WALK_TEST = "repeat the test: a physical drift repeats, a random walk does not"
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,8 @@ _RELAX = (
     Mechanism("play-type hysteresis (friction, stiction of the package)", "thermal_hysteresis",
               "stress stored by a slip at the interfaces remembers the path, independent of rate",
               "a second ramp rate and reversals of different size: play widths stay fixed, creep decays"),
+    Mechanism(RANDOM_WALK, None, "slow noise, not physics: a walk that drifts after a step looks like a relaxation",
+              _WALK_TEST),
 )
 
 #: family → mechanisms that share its signature
@@ -80,8 +83,7 @@ CATALOGUE: dict[str, tuple[Mechanism, ...]] = {
                   "repeat identical cycles days apart"),
         Mechanism("moisture desorption or uptake", None, "the mould's water content drifts with the room's humidity",
                   "log humidity or a dry purge; a bake resets it"),
-        Mechanism(RANDOM_WALK, None, "slow noise, not physics: it does not repeat",
-                  "repeat the test: a physical drift repeats, a random walk does not"),
+        Mechanism(RANDOM_WALK, None, "slow noise, not physics: it does not repeat", _WALK_TEST),
     ),
     "warmup": (
         Mechanism("self-heating after power-on", "warmup", "the ASIC heats the die for minutes after power-on",
@@ -100,11 +102,6 @@ FEATURE_FAMILY = {"rate": "thermal_lag", "lag": "thermal_lag", "abs_rate": "ther
                   "temp_rate": "thermal_lag", "since_change": "hysteresis", "play": "hysteresis",
                   "power_on": "warmup", "trend": "aging", "power": "bias_tc", "step": "bias_tc",
                   "oscillation": "thermal_lag", "hold_sine": "thermal_lag"}
-
-
-def mimicked_by_random_walk(family: str) -> bool:
-    """Whether a bias random walk is among the family's look-alikes (its test then allows one in the noise)."""
-    return any(m.name == RANDOM_WALK for m in CATALOGUE.get(family, ()))
 
 
 def lookalikes(family: str, effect: str | None = None) -> list[Mechanism]:

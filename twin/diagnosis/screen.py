@@ -17,7 +17,6 @@ from scipy.optimize import minimize_scalar
 
 from twin.diagnosis.calibrate import Calibration
 from twin.diagnosis.linalg import heldout_errors, novelty, orthonormal_basis
-from twin.diagnosis.lookalikes import mimicked_by_random_walk
 from twin.diagnosis.noise import fit_ar, fit_walk_ar
 from twin.diagnosis.problem import DiagnosisConfig, Problem, cv_folds
 from twin.effects import REGISTRY, Composition, Effect, get_effect
@@ -52,6 +51,12 @@ class CandidateResult:
     significant: bool = False
     rms_residual_g: float = float("nan")
     refined_values: dict[str, float] | None = None  # grid_values refined between grid points (named effect)
+    delta_bic_ar: float | None = None  # ΔBIC with the AR-only noise model, where a walk retest replaced it
+
+    @property
+    def evidence_ar(self) -> float:
+        """ΔBIC with the AR-only noise model."""
+        return self.delta_bic if self.delta_bic_ar is None else self.delta_bic_ar
 
 
 @dataclass(frozen=True)
@@ -216,6 +221,7 @@ def _retest_with_walk(problem: Problem, J: np.ndarray, y: np.ndarray, c: Candida
     restricted likelihood keeps θ = 1: the same AR model, the same numbers)."""
     X = problem.avg(c.columns_full)
     t = gls_candidate_test(problem, J, y, X, problem.config.max_ar_order, walk=True)
+    c.delta_bic_ar = c.delta_bic
     c.delta_bic, c.p_value, c.p_adjusted = t.delta_bic, t.p_value, min(1.0, t.p_value * n_tests)
     c.explained_fraction = t.explained_fraction
     c.amplitudes = {a: (float(t.coef[j]), float(t.half_width[j])) for j, a in enumerate(c.amplitudes)}
@@ -319,8 +325,8 @@ def screen(problem: Problem, cal: Calibration, candidates: list[str], extra: np.
             sse0s, sse1s = float(e0 @ e0), float(e1 @ e1)
             best.heldout_gain = float(1 - np.sqrt(sse1s / sse0s)) if sse0s > 0 else 0.0
         best.significant = _significant(best, cls, cfg)
-        if best.significant and mimicked_by_random_walk(cls.family):  # a walk drifting one way passes an AR model
-            _retest_with_walk(problem, J, y_avg, best, n_tests)
+        if best.significant:  # a walk drifting one way passes an AR model; every candidate is retested so
+            _retest_with_walk(problem, J, y_avg, best, n_tests)  # they rank under one noise model
             best.significant = _significant(best, cls, cfg)
         results.append(best)
     # what the data can test ranks before what it cannot, then by evidence

@@ -153,9 +153,11 @@ def assess_confidence(problem: Problem, cal: Calibration, selection: Selection, 
     after = y2 - J2 @ np.linalg.lstsq(J2, y2, rcond=None)[0]
     slow = _slow_share(problem, cal.residual_avg, after)
     consistent = _run_consistency(problem, cal, top)
-    # an aliased effect of another family with at least half the named one's ΔBIC is a rival
-    # explanation: naming either is then a guess, however well it fits
-    rivals = sorted(e for e, b in cross_family_partners(top, aliases, first).items() if b >= 0.5 * top.delta_bic)
+    # an aliased effect of another family with at least half the named one's ΔBIC, with or without a
+    # random walk in the noise model, is a rival explanation: naming either is then a guess
+    ar = {c.effect: c.evidence_ar for c in first}
+    rivals = sorted(e for e, b in cross_family_partners(top, aliases, first).items()
+                    if b >= 0.5 * top.delta_bic or ar[e] >= 0.5 * top.evidence_ar)
     confident = slow >= 0.5 and consistent is not False and not confounded and not rivals
     return Confidence("confident" if confident else "uncertain", slow, consistent, rivals)
 
