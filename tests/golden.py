@@ -36,14 +36,21 @@ def normalise(value):
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
-def cpu_vendor() -> str:
-    """The CPU vendor (``GenuineIntel``, ``AuthenticAMD``, ...) from /proc/cpuinfo, or ``unknown``."""
+def cpu_kind() -> str:
+    """The CPU vendor and widest vector unit, e.g. ``AuthenticAMD-avx512``, from /proc/cpuinfo.
+
+    The compiled fitness kernel is built for the machine it runs on, so an AVX-512 and an AVX2 CPU
+    sum a network's errors in lanes of different width; ``unknown`` when /proc/cpuinfo is absent.
+    """
     try:
         text = Path("/proc/cpuinfo").read_text()
     except OSError:
         return "unknown"
-    found = re.search(r"^vendor_id\s*:\s*(\S+)", text, re.M)
-    return found.group(1) if found else "unknown"
+    vendor = re.search(r"^vendor_id\s*:\s*(\S+)", text, re.M)
+    found = re.search(r"^flags\s*:(.*)$", text, re.M)
+    flags = set(found.group(1).split()) if found else set()
+    isa = "avx512" if "avx512f" in flags else "avx2" if "avx2" in flags else "other"
+    return f"{vendor.group(1) if vendor else 'unknown'}-{isa}"
 
 
 def differences(new, old, rel: float, abs_: float, path: str = "") -> list[str]:
@@ -97,13 +104,13 @@ def make_run_outputs(tmp: Path) -> dict[str, dict]:
 
 
 # Outputs of trained neural networks: float32 searches and non-convex fits amplify last-bit
-# differences between CPUs' SIMD paths, so they are recorded per CPU vendor (tests/test_golden.py).
-PER_VENDOR = ("benchmark_quick",)
+# differences between CPUs' SIMD paths, so they are recorded per CPU kind (tests/test_golden.py).
+PER_CPU = ("benchmark_quick",)
 
 
-def recorded_path(name: str, vendor: str | None = None) -> Path:
-    """Where ``name`` is recorded: per vendor for :data:`PER_VENDOR`, else one file for all CPUs."""
-    return GOLDEN / vendor / f"{name}.json" if name in PER_VENDOR and vendor else GOLDEN / f"{name}.json"
+def recorded_path(name: str, kind: str | None = None) -> Path:
+    """Where ``name`` is recorded: per CPU kind (:func:`cpu_kind`) for :data:`PER_CPU`, else one file for all."""
+    return GOLDEN / kind / f"{name}.json" if name in PER_CPU and kind else GOLDEN / f"{name}.json"
 
 
 if __name__ == "__main__":
@@ -111,7 +118,7 @@ if __name__ == "__main__":
 
     with tempfile.TemporaryDirectory() as d:
         for name, data in make_run_outputs(Path(d)).items():
-            path = recorded_path(name, cpu_vendor())
+            path = recorded_path(name, cpu_kind())
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
             print("wrote", path)

@@ -264,3 +264,53 @@ def test_benchmark_run_time_errors_exit_2_with_one_line(tmp_path, paper_path):
     assert r.returncode == 2, r.stderr
     assert r.stderr.startswith("twin: error: ") and "extrapolation split" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_rational_tanh_is_within_its_bound_of_torch_tanh():
+    import torch
+
+    from fitting.kernels import TANH_MAX_ABS_ERROR, tanh_rational_array
+
+    x = np.concatenate([np.linspace(-20, 20, 2_000_001), [-1e30, -8.0, -7.9053, 0.0, 1e-30, 7.9053, 8.0, 1e30]])
+    x32 = x.astype(np.float32)
+    got = tanh_rational_array(x32).astype(np.float64)
+    ref = torch.tanh(torch.as_tensor(x32, dtype=torch.float64)).numpy()
+    err = np.abs(got - ref)
+    assert err.max() <= TANH_MAX_ABS_ERROR  # the stated bound: 5e-7 (measured 2.7e-7, ~4 ulp of 1)
+    assert err.max() > 1e-8  # an approximation, not a call to tanh: the bound is the one that matters
+    np.testing.assert_array_equal(tanh_rational_array(-x32), -tanh_rational_array(x32))  # odd
+    assert np.all(np.abs(got) <= 1.0) and got[len(x) - 5] == 0.0
+    assert 1 - got[-1] <= TANH_MAX_ABS_ERROR and 1 + got[0] <= TANH_MAX_ABS_ERROR  # saturates
+
+
+@pytest.mark.parametrize("d, hidden", [(1, 10), (4, 10), (4, 7), (5, 10), (9, 3)])  # 1, 2, 3 groups of 4; odd h
+def test_compiled_kernel_equals_the_torch_kernel(d, hidden):
+    import torch
+
+    rng = np.random.default_rng(d * 100 + hidden)
+    X = torch.as_tensor(rng.normal(size=(3001, d)), dtype=torch.float32)
+    y = torch.as_tensor(rng.normal(size=3001), dtype=torch.float32)
+    pop = torch.as_tensor(init_weights(d, hidden, rng, size=12) + rng.normal(0, 0.5, (12, n_parameters(d, hidden))),
+                          dtype=torch.float32)
+    compiled = population_mse(pop, X, y, hidden, chunk=1000).numpy()  # a ragged last chunk
+    torch_kernel = population_mse(pop, X, y, hidden, kernel="torch").numpy()
+    # float32 sums of 1000 terms and a tanh within 5e-7: 1e-5 relative covers both with room
+    np.testing.assert_allclose(compiled, torch_kernel, rtol=1e-5)
+    assert not np.array_equal(compiled, torch_kernel)  # the compiled path did run
+
+
+def test_compiled_kernel_does_not_depend_on_the_thread_count():
+    import numba
+    import torch
+
+    rng = np.random.default_rng(7)
+    X = torch.as_tensor(rng.normal(size=(5000, 4)), dtype=torch.float32)
+    y = torch.as_tensor(rng.normal(size=5000), dtype=torch.float32)
+    pop = torch.as_tensor(init_weights(4, 10, rng, size=9), dtype=torch.float32)
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = population_mse(pop, X, y, 10).numpy()
+    finally:
+        numba.set_num_threads(before)
+    np.testing.assert_array_equal(population_mse(pop, X, y, 10).numpy(), one)  # each network sums alone

@@ -9,14 +9,15 @@ JSON, but another CPU's SIMD paths (OpenBLAS, NumPy, torch) sum in another order
   error of 1e-15 /K — are equal below 1e-15 absolute. Numbers inside text are compared the same way.
 - the quick compensation benchmark trains neural networks (float32 searches, non-convex fits) that
   amplify last-bit differences (up to 60 % on one extrapolation split between the two CPUs), so it
-  is recorded per CPU vendor and compared exactly; on a vendor with no recording it is skipped.
+  is recorded per CPU vendor and vector width (the compiled fitness kernel is built for the CPU it
+  runs on) and compared exactly; on a CPU kind with no recording it is skipped.
 """
 
 import json
 
 import pytest
 
-from golden import PER_VENDOR, cpu_vendor, differences, make_run_outputs, recorded_path
+from golden import PER_CPU, cpu_kind, differences, make_run_outputs, recorded_path
 
 REL, ABS = 1e-8, 1e-15
 
@@ -33,11 +34,11 @@ def test_make_run_json_is_unchanged(outputs, name):
     assert not found, "\n".join(found[:20])
 
 
-@pytest.mark.parametrize("name", PER_VENDOR)
-def test_trained_networks_are_unchanged_on_this_cpu_vendor(outputs, name):
-    path = recorded_path(name, cpu_vendor())
+@pytest.mark.parametrize("name", PER_CPU)
+def test_trained_networks_are_unchanged_on_this_cpu_kind(outputs, name):
+    path = recorded_path(name, cpu_kind())
     if not path.is_file():
-        pytest.skip(f"no recording of {name} for CPU vendor {cpu_vendor()} (python tests/golden.py records one)")
+        pytest.skip(f"no recording of {name} for CPU {cpu_kind()} (python tests/golden.py records one)")
     assert json.loads(json.dumps(outputs[name], sort_keys=True)) == json.loads(path.read_text())
 
 
