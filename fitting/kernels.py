@@ -9,9 +9,9 @@ vendor's tanh (on an AMD EPYC torch's float32 tanh runs at 0.8 G/s, its sigmoid 
 
 tanh is Eigen's float32 approximation (``ptanh_float``, Eigen 3.4, ``GenericPacketMathFunctions.h``):
 x·P(x²)/Q(x²) with P of degree 6 and Q of degree 3 in x², the argument clamped to ±7.9053, where the
-result is within 2.4e-7 of ±1. Its error against the float64 tanh is below :data:`TANH_MAX_ABS_ERROR` (tested
-on a dense grid and against ``torch.tanh``). Each network's sum runs in its own order whatever the
-thread count, so the same seed gives the same fitness on one machine.
+result is within 2.4e-7 of ±1. Its error against the float64 tanh is below
+:data:`TANH_MAX_ABS_ERROR` (tested on a dense grid against ``torch.tanh``). Each network's sum runs
+in its own order whatever the thread count, so the same seed gives the same fitness on one machine.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from numba import njit, prange
 
 #: bound on |tanh_rational(x) − tanh(x)| over all float32 x (measured 2.7e-7 on [−20, 20]: ~4 ulp of 1)
 TANH_MAX_ABS_ERROR = 5e-7
+
 
 @njit(fastmath=True, error_model="numpy", inline="always", cache=True)
 def tanh_rational(x):  # pragma: no cover - compiled
