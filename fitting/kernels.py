@@ -130,8 +130,11 @@ def population_mse_tanh(theta: np.ndarray, XT: np.ndarray, y: np.ndarray, hidden
     padded = -(-d // 4) * 4  # zero inputs with zero weights up to a multiple of 4
     W1 = np.zeros((P, padded, hidden), np.float32)
     W1[:, :d] = th[:, :i].reshape(P, d, hidden)
-    XT4 = np.zeros((padded, XT.shape[1]), np.float32)
-    XT4[:d] = XT
+    if padded == d:  # no copy of the inputs
+        XT4 = np.ascontiguousarray(XT, dtype=np.float32)
+    else:
+        XT4 = np.zeros((padded, XT.shape[1]), np.float32)
+        XT4[:d] = XT
     b1 = np.ascontiguousarray(th[:, i : i + hidden])
     W2 = np.ascontiguousarray(th[:, i + hidden : i + 2 * hidden])
     b2 = np.ascontiguousarray(th[:, -1])
