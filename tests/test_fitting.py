@@ -106,7 +106,7 @@ def test_analytic_gradient_equals_autograd(activation):
     t = torch.tensor(theta[None, :], requires_grad=True)
     ref = ((forward(t, X, 7, activation)[0] - y) ** 2).mean()
     ref.backward()
-    assert mse == pytest.approx(float(ref), rel=1e-13)
+    assert mse == pytest.approx(ref.item(), rel=1e-13)
     np.testing.assert_allclose(grad, t.grad[0].numpy(), rtol=1e-10, atol=1e-14)
 
 
