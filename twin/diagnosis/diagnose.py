@@ -73,7 +73,8 @@ class Diagnosis:
     run_consistent: bool | None
     segments: dict
     withheld: list[dict] = field(default_factory=list)
-    rivals: list[str] = field(default_factory=list)  # other families aliased with the named one, ≥ ½ its ΔBIC
+    # other families aliased with the named one, with ≥ ½ its ΔBIC under either noise model
+    rivals: list[str] = field(default_factory=list)
     structure: list = field(default_factory=list)  # Structure: where the residual is not noise (after named effects)
     rms_after_selected_g: float = float("nan")  # residual with the named effects added
     discovery: object | None = None  # a Discovery, when ``--discover`` ran

@@ -39,7 +39,7 @@ class Confidence:
     label: str  # "confident", "uncertain" or "none"
     slow_share: float | None = None  # share of the slow residual the named effect removes
     run_consistent: bool | None = None  # its coefficient is the same in every run
-    rivals: list[str] = field(default_factory=list)  # other families aliased with it, ≥ ½ its ΔBIC
+    rivals: list[str] = field(default_factory=list)  # other families aliased, ≥ ½ its ΔBIC (either noise model)
 
 
 def next_selection(pool: list[CandidateResult], cfg: DiagnosisConfig) -> Pick:
