@@ -3,13 +3,14 @@
 
 1. Population fitness evaluations per second: ours (``population_mse``: the compiled kernel of
    ``fitting.kernels`` — float32, one pass per network, a rational tanh — and beside it the torch
-   kernel, one GEMM for the hidden layers of the whole population, chunked) against pygad (``fitness_batch_size`` =
-   population) and evotorch (a vectorised ``Problem``, its GeneticAlgorithm), both handed the
+   kernel, one GEMM for the hidden layers of the whole population, chunked) against pygad
+   (``fitness_batch_size`` = population) and evotorch (a vectorised ``Problem``, its GeneticAlgorithm), both handed the
    batched torch fitness a user would write (float32, every network at once by broadcasting).
    Target (issue 15): ≥ 10× the best peer. evotorch is also timed with our kernel as its fitness,
    to show how much of the ratio is the kernel. Where the time goes is measured too: one evaluation is
    31.4 MFLOP + 3.9 M activations; the activation's share is timed separately, and the vendor's
-   tanh beside its sigmoid (the kernel runs tanh networks as sigmoid networks with rescaled weights).
+   tanh beside its sigmoid (the torch kernel runs tanh networks as sigmoid networks with rescaled
+   weights).
 2. PSO-GA-BPNN end to end (50 iterations = 50 GA generations + 50 PSO steps, then L-BFGS) against
    scikit-learn's MLPRegressor(10, tanh, lbfgs): wall time (target, issue 15: ≤ 2× at equal test
    MSE) and test MSE on cycle 3, with the search's fitness on all training samples (the paper's

@@ -124,7 +124,8 @@ class EvolvedBPNN(RegressorMixin, BaseEstimator):
         x_scale[x_scale == 0] = 1.0
         y_mean, y_scale = float(y.mean()), float(y.std()) or 1.0
         stride = max(1, int(self.sample_stride))
-        Xt = torch.as_tensor(((X - x_mean) / x_scale)[::stride], dtype=torch.float32)
+        # an (n, d) view of a sample-contiguous (d, n) array: both kernels take Xᵀ without copying it per call
+        Xt = torch.as_tensor(np.ascontiguousarray(((X - x_mean) / x_scale)[::stride].T), dtype=torch.float32).T
         yt = torch.as_tensor(((y - y_mean) / y_scale)[::stride], dtype=torch.float32)
         d, h = X.shape[1], int(self.hidden_size)
 

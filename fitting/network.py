@@ -102,8 +102,8 @@ def population_mse(theta, X, y, hidden: int, activation: str = "tanh", chunk: in
     (:func:`fitting.kernels.population_mse_tanh`: one pass per network, a rational tanh within 5e-7;
     1.9× this torch kernel on an AMD EPYC) when numba is present; ``"torch"`` forces the torch kernel.
 
-    The torch kernel: the hidden layers of all P networks are one GEMM, (P·h, d) @ (d, chunk), so the work is laid
-    out member-major: the activation runs in place and the output layer is one batched
+    The torch kernel: the hidden layers of all P networks are one GEMM, (P·h, d) @ (d, chunk), so the
+    work is laid out member-major: the activation runs in place and the output layer is one batched
     (1, h) @ (h, chunk) product per member on contiguous rows. Chunks of ``chunk`` samples (default
     :func:`block_chunk`: the (P·h, chunk) block fits the L2 cache); a (P, n, h) broadcast, as
     :func:`forward` does, is ~8× slower on 390k samples (benchmarks/bench_fitting.py measures both).
@@ -114,8 +114,7 @@ def population_mse(theta, X, y, hidden: int, activation: str = "tanh", chunk: in
     if kernel == "auto" and activation == "tanh" and X.dtype == torch.float32 and compiled_kernel_available():
         from fitting.kernels import population_mse_tanh
 
-        mse = population_mse_tanh(theta.to(torch.float32).numpy(), X.T.contiguous().numpy(), y.numpy(), hidden,
-                                  1024 if chunk is None else int(chunk))
+        mse = population_mse_tanh(theta.to(torch.float32).numpy(), X.T.contiguous().numpy(), y.numpy(), hidden, chunk)
         return torch.from_numpy(mse)
     P, d = theta.shape[0], X.shape[1]
     i = d * hidden
