@@ -35,7 +35,7 @@ run: $(STAMP)
 	rm -rf out/compare
 	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/base.json
 	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/after.json \
-		--with-effect $$($(PY) -c "import json; print(json.load(open('out/compare/base.json'))['candidates'][0]['effect'])")
+		--with-effect $$($(PY) -c "import json; d = json.load(open('out/compare/base.json')); print((d['selected'] + [c['effect'] for c in d['candidates']])[0])")
 	# a real three-axis log to a validated compensation and the file PX4 loads (when ../shared is beside us)
 	if [ -f $(TOFU) ]; then \
 		$(TWIN) calibrate $(TOFU) --time-col timestamp --time-unit us --temperature-col imu.temperature \

@@ -94,7 +94,8 @@ def make_run_outputs(tmp: Path) -> dict[str, dict]:
     cli("run", "scenarios/hidden_thermal_lag.yaml", "-o", str(tmp / "hidden.h5"), "-q")
     cli("export", str(tmp / "hidden.h5"), "-o", str(tmp / "hidden.csv"))
     cli("compare", "scenarios/hidden_thermal_lag.yaml", str(tmp / "hidden.csv"), "--json", str(tmp / "base.json"))
-    named = json.loads((tmp / "base.json").read_text())["candidates"][0]["effect"]
+    base = json.loads((tmp / "base.json").read_text())
+    named = (base["selected"] + [c["effect"] for c in base["candidates"]])[0]
     cli("compare", "scenarios/hidden_thermal_lag.yaml", str(tmp / "hidden.csv"), "--json", str(tmp / "after.json"),
         "--with-effect", named)
     cli("benchmark", "scenarios/paper_iis328dq.yaml", "--quick", "--seeds", "1", "--json",

@@ -144,6 +144,40 @@ def test_sub_threshold_hysteresis_is_not_named_as_a_lag():
     assert "none is named" in r["finding"]
 
 
+def test_a_gradient_of_its_own_sign_is_named_a_gradient_not_a_lag():
+    # a lag lowers the output while heating (r ≈ −b₁τ dT/dt); this gradient raises it, so the lag's
+    # whole model, whose amplitude follows from the calibrated tempco, cannot fit it
+    case = draw_case("thermal_gradient", seed=2003)
+    _, r = compare_measurement(case.twin, case.measurement, [])
+    assert r["selected"] == ["thermal_gradient"], r["finding"]
+    best, lag = r["family_choices"][0]["models"]
+    assert (best["effect"], lag["effect"]) == ("thermal_gradient", "thermal_lag")
+    assert lag["rss_over_best"] > 2.0 and lag["bic"] - best["bic"] > 1000
+
+
+def test_whole_models_name_the_lag_where_its_screening_grid_ranks_the_gradient_first(tmp_path):
+    """Unit 3 of the simulated fleet: a die 307 s behind a board thermometer, linear tempcos, one
+    orientation. Lag and gradient columns are then one shape; screening ranks the gradient first
+    (its grid has 300 s, the lag's 240 and 480 s). Calibrated whole they leave the same residual,
+    and the lag, whose amplitude follows from the tempco, needs one parameter fewer."""
+    from twin.fleet.simulate import load_fleet_scenario, simulate_unit
+    from twin.measurement import ColumnMap
+    from twin.model.scenario import load_scenario
+
+    fs = load_fleet_scenario(ROOT / "scenarios/fleet_mixed.yaml")
+    csv = simulate_unit(fs, 3, str(tmp_path / "unit0003.csv"))
+    _, r = compare_measurement(load_scenario(ROOT / "scenarios/fleet_base.yaml"),
+                               load_measurements([csv], ColumnMap()), [])
+    assert r["candidates"][0]["effect"] == "thermal_gradient"
+    assert r["selected"] == ["thermal_lag"] and r["confidence"] == "confident", r["finding"]
+    lag, grad = r["family_choices"][0]["models"]
+    assert (lag["effect"], grad["effect"]) == ("thermal_lag", "thermal_gradient")
+    assert grad["free_parameters"] == lag["free_parameters"] + 1
+    assert lag["rss_over_best"] < 1.01  # the same residual within 1 %: the parameter count decides
+    assert 300 < r["candidates"][[c["effect"] for c in r["candidates"]].index("thermal_lag")]["parameters_refined"]["tau_s"] < 330
+    assert "has the lowest BIC of its family" in r["finding"]
+
+
 def test_two_simultaneous_effects_are_both_selected():
     case = draw_case("lag_and_scale_factor", seed=8)
     _, r = compare_measurement(case.twin, case.measurement, [])

@@ -45,6 +45,11 @@ class Calibration:
     temperature_derivative: np.ndarray | None = None  # cache: ∂(drift)/∂(die temperature)
 
     @property
+    def free_parameters(self) -> int:
+        """Offsets, free amplitudes and free nonlinear parameters: the k of an information criterion."""
+        return self.beta.size + len(_nonlinear_slots(self.composition))
+
+    @property
     def prediction_minus_applied(self) -> np.ndarray:
         return self.X_full @ self.beta + self.fixed_full
 
@@ -124,7 +129,8 @@ def exact_aliases(problem: Problem, comp: Composition) -> list[tuple[tuple[str, 
     return out
 
 
-def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | None = None) -> Calibration:
+def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | None = None,
+              intervals: bool = True) -> Calibration:
     """Fit the model's free parameters to the measurement (see the module docstring).
 
     Parameters
@@ -135,6 +141,9 @@ def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | Non
         The model; its values start the nonlinear search.
     config : DiagnosisConfig, optional
         Defaults to ``problem.config``.
+    intervals : bool
+        Profile-likelihood intervals of the nonlinear parameters (most of the cost); without
+        them ``nonlinear_ci`` is empty.
 
     Returns
     -------
@@ -183,7 +192,8 @@ def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | Non
     comp = Composition(effects)
     residual = problem.y - X_full @ beta - fixed
     cal = Calibration(comp, names, beta, cov, ar, X_full, fixed, inputs, residual, r_avg)
-    cal.nonlinear_ci = profile_ci(problem, comp, ar, slots, pinned)
+    if intervals:
+        cal.nonlinear_ci = profile_ci(problem, comp, ar, slots, pinned)
     cal.pinned = aliases
     return cal
 

@@ -30,18 +30,12 @@ def sensor_noise_floor_g(loaded: LoadedScenario, rate_hz: float) -> float | None
 
 def twin_model(loaded: LoadedScenario, with_effects: list[str]) -> Composition:
     """The scenario's ``twin.effects`` plus ``--with-effect`` names (never ``device.effects``)."""
-    comp = loaded.twin_composition()
-    ctx = {"geometry": loaded.geometry()}
-    present = [e.name for e in comp.effects]
     for name in with_effects:
         try:
-            cls = get_effect(name)
+            get_effect(name)
         except ModelError as exc:
             raise TwinError(f"--with-effect: {exc}") from None
-        if name not in present:  # an effect the user adds is calibrated whole (fixed-by-default amplitudes too)
-            comp = Composition(comp.effects + [cls({**ctx, "fit_all": True})])
-            present.append(name)
-    return comp
+    return loaded.twin_composition().added(with_effects, {"geometry": loaded.geometry()})
 
 
 def compare_measurement(loaded: LoadedScenario, m: Measurement, with_effects: list[str], average_s: float = 10.0):

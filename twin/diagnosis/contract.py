@@ -68,6 +68,7 @@ def result_json(d: Diagnosis) -> dict:
         "selected": [c.effect for c in d.selected],
         "withheld": d.withheld,
         "rivals": d.rivals,
+        "family_choices": d.family_choices,
         "confidence": d.confidence,
         "candidates": cands,
         "aliases": d.aliases,

@@ -19,7 +19,8 @@ Pipeline (diagnosis-methods §1), one module per step:
 5. **Forward selection** (:mod:`~twin.diagnosis.selection`) for several effects: the best-ranked
    significant candidate is named, unless a testable candidate of another family outranks it
    (more ΔBIC, short of a threshold); then nothing is named, the pair is reported as ``withheld``
-   and the confidence is uncertain. A confidence label from the slow-residual share and run
+   and the confidence is uncertain. Significant candidates of one family are calibrated whole and
+   the lowest BIC is named (a lag needs no amplitude of its own; a gradient does). A confidence label from the slow-residual share and run
    consistency.
 
 The finding is worded by :mod:`~twin.diagnosis.language`, the JSON by :mod:`~twin.diagnosis.contract`.
@@ -77,6 +78,7 @@ class Diagnosis:
     rivals: list[str] = field(default_factory=list)
     structure: list = field(default_factory=list)  # Structure: where the residual is not noise (after named effects)
     rms_after_selected_g: float = float("nan")  # residual with the named effects added
+    family_choices: list[dict] = field(default_factory=list)  # a family's candidates calibrated whole (BIC)
     discovery: object | None = None  # a Discovery, when ``--discover`` ran
     plugin_path: str | None = None  # where the discovered term was written as an effect
 
@@ -114,6 +116,7 @@ def diagnose(problem: Problem, comp: Composition, noise_floor_model_g: float | N
     d = Diagnosis(cal, problem, first, selection.selected, found.aliases, found.untestable, found.model_aliased,
                   floor, noise_floor_model_g, conf.label, "", _heldout_rms(problem, cal), conf.slow_share,
                   conf.run_consistent, residual_segments(problem, cal.residual), selection.withheld, conf.rivals)
+    d.family_choices = selection.family_choices
     d.rms_after_selected_g = _rms_with(problem, cal, selection.selected)
     if d.rms_after_selected_g > HONESTY_RATIO * floor:  # only then can "no missing effect" be wrong
         d.structure = residual_structure(problem, cal, selection.selected, floor)

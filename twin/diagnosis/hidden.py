@@ -41,12 +41,13 @@ CASES = {
     "noise_misspecified": None,
     "out_of_library": None,
     "lag_and_scale_factor": "thermal_lag",
+    "thermal_gradient": "thermal_lag",  # stress ∝ dT/dt of its own sign and size: not what a lag predicts
 }
 
 #: detectable RMS over σ of the noise on 10-s means (diagnosis-methods §3.1 item 7)
 LEVEL_BANDS = {"clear": (1.5, 3.0), "marginal": (0.5, 1.0), "sub": (0.1, 0.3)}
 #: cases whose hidden term is linear in its amplitudes, so the level can be set exactly
-LINEAR_CASES = {"hysteresis", "creep_2term", "scale_factor", "scale_factor_cubic", "aging", "aging_log", "warmup"}
+LINEAR_CASES = {"hysteresis", "creep_2term", "thermal_gradient", "scale_factor", "scale_factor_cubic", "aging", "aging_log", "warmup"}
 
 
 def detectable_ratio(m: Measurement, twin: LoadedScenario, hidden_g: np.ndarray, noise_g: np.ndarray,
@@ -168,6 +169,9 @@ def draw_case(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) 
         amp = _u(rng, 0.1, 0.15) if sub else _u(rng, 0.35, 0.5) if marginal else _u(rng, 0.8, 1.6)
         device["warmup"] = {"amplitude_mg": amp * (1 if rng.random() < 0.5 else -1), "tau_s": _u(rng, 40, 250)}
         truth.update(device["warmup"])
+    elif kind == "thermal_gradient":  # raises the output while heating, where a lag lowers it
+        device["thermal_gradient"] = {"coef_mg_per_c_per_min": _u(rng, 1.0, 3.0), "tau_s": _u(rng, 120, 400)}
+        truth.update(device["thermal_gradient"])
     elif kind == "probe_offset":
         device["probe_offset"] = {"offset_c": _u(rng, 0.5, 2.0) * (1 if rng.random() < 0.5 else -1)}
         truth.update(device["probe_offset"])
@@ -176,7 +180,7 @@ def draw_case(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) 
         sensor.update(noise_density_ug_per_sqrt_hz=2 * nominal, bias_instability_mg=0.1, bias_instability_tau_s=900.0)
     _AMPLITUDE = {"thermal_hysteresis": ["k_mg_per_c"], "stress_relaxation": ["k1_mg_per_c", "k2_mg_per_c"],
                   "scale_factor_tc": ["tc1_ppm_per_c"], "aging_drift": ["rate_mg_per_h", "log_mg"],
-                  "warmup": ["amplitude_mg"]}
+                  "warmup": ["amplitude_mg"], "thermal_gradient": ["coef_mg_per_c_per_min"]}
     scenario = {
         "seed": int(seed), "program": _PROGRAM,
         "chamber": {"model": "lumped", "lumped": lumped, "thermometer": thermometer},

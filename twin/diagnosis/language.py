@@ -106,6 +106,7 @@ def finding_text(d: Diagnosis) -> str:
         parts.append(f"{sig}: {phys}. Adding {top.effect} lowers the RMS from {_fmt_mg(rms)} to "
                      f"{_fmt_mg(top.rms_residual_g)}; noise floor {_fmt_mg(d.noise_floor_g)} "
                      f"(ΔBIC {top.delta_bic:.0f}, held-out gain {100 * top.heldout_gain:.0f} %).")
+        parts += [family_choice_text(ch) for ch in d.family_choices]
         parts.append(_attribution_text(top.family, top.effect))
         if len(d.selected) > 1:
             parts.append("Also missing: " + ", ".join(c.effect for c in d.selected[1:]) + ".")
@@ -161,6 +162,15 @@ def finding_text(d: Diagnosis) -> str:
 
 GROUPING = {"temperature": "in temperature", "rate": "between heating, cooling and dwells",
             "temperature_direction": "between heating and cooling at the same temperature", "time": "in time"}
+
+
+def family_choice_text(choice: dict) -> str:
+    """Why one effect of a family is named over another that screening ranked alike or higher."""
+    win, *rest = choice["models"]
+    others = "; ".join(f"{m['effect']}: {m['free_parameters']} parameters, residual {m['rss_over_best']:.4f}× the best, "
+                       f"BIC +{m['bic'] - win['bic']:.1f}" for m in rest)
+    return (f"Calibrated whole, {win['effect']} ({win['free_parameters']} parameters, residual "
+            f"{win['rss_over_best']:.4f}× the best) has the lowest BIC of its family ({others}).")
 
 
 def _attribution_text(family: str, effect: str | None) -> str:

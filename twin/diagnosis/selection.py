@@ -2,7 +2,8 @@
 
 The best-ranked significant candidate is named, unless a testable candidate of another family
 outranks it (more ΔBIC, short of a threshold); then nothing is named, the pair is reported as
-``withheld`` and the confidence is uncertain. The label comes from the slow-residual share, run
+``withheld`` and the confidence is uncertain. Between significant candidates of one family, the
+whole calibrated models decide (:func:`choose_within_family`). The label comes from the slow-residual share, run
 consistency, confounding and rival explanations.
 """
 
@@ -15,7 +16,7 @@ import numpy as np
 from scipy import stats
 from scipy.ndimage import uniform_filter1d
 
-from twin.diagnosis.calibrate import Calibration
+from twin.diagnosis.calibrate import Calibration, calibrate
 from twin.diagnosis.problem import DiagnosisConfig, Problem
 from twin.diagnosis.screen import CandidateResult, is_testable, screen
 from twin.effects import get_effect
@@ -32,6 +33,7 @@ class Pick(NamedTuple):
 class Selection:
     selected: list[CandidateResult] = field(default_factory=list)  # named, in order of selection
     withheld: list[dict] = field(default_factory=list)  # significant but outranked by another family
+    family_choices: list[dict] = field(default_factory=list)  # one family's candidates, calibrated whole
 
 
 @dataclass
@@ -70,6 +72,56 @@ def next_selection(pool: list[CandidateResult], cfg: DiagnosisConfig) -> Pick:
     return Pick(None, None)
 
 
+def choose_within_family(problem: Problem, cal: Calibration, top: CandidateResult, pool: list[CandidateResult],
+                         named: list[CandidateResult]) -> tuple[CandidateResult, dict | None]:
+    """Among the significant candidates of ``top``'s family, the one whose whole calibrated model
+    has the lowest BIC, and the comparison (None when the family has one significant candidate).
+
+    Screening gives every candidate a free amplitude, so two effects with one column shape tie
+    there, and a τ grid point decides. Calibrated whole they need not: a die lag acts through the
+    model's own tempcos and needs no amplitude of its own, a package gradient does. Each candidate
+    is calibrated whole on top of the model and the effects named so far; BIC = n ln(RSS/n) + k ln n
+    (Schwarz 1978) on the prewhitened block means, one AR model for all (the best fit's), k counting
+    offsets, free amplitudes and free nonlinear parameters.
+
+    Parameters
+    ----------
+    problem, cal : Problem, Calibration
+    top : CandidateResult
+        The pick of :func:`next_selection`.
+    pool : list of CandidateResult
+        The screening it came from.
+    named : list of CandidateResult
+        Effects named before it, included whole in every model.
+
+    Returns
+    -------
+    candidate : CandidateResult
+        ``top`` or a candidate of its family with a lower BIC.
+    comparison : dict or None
+        Family, the effect named, the first by screening, each model's BIC, k and RSS over the best.
+    """
+    cfg = problem.config
+    same = [c for c in pool if c.family == top.family and c.significant and is_testable(c, cfg)]
+    if len(same) < 2:
+        return top, None
+    ctx = {k: v for k, v in (cal.composition.effects[0].context if cal.composition.effects else {}).items()
+           if k != "fit_all"}
+    base = cal.composition.added([c.effect for c in named], ctx)
+    fits = {c.effect: calibrate(problem, base.added([c.effect], ctx), intervals=False) for c in same}
+    best_fit = min(fits.values(), key=lambda f: float(f.residual_avg @ f.residual_avg))
+    n = problem.run_avg.size
+    rss = {}
+    for effect, f in fits.items():
+        rw = best_fit.ar.prewhiten(f.residual_avg, problem.run_avg)
+        rss[effect] = max(float(rw @ rw), 1e-300)
+    models = sorted(({"effect": e, "free_parameters": fits[e].free_parameters,
+                      "bic": n * np.log(rss[e] / n) + fits[e].free_parameters * np.log(n),
+                      "rss_over_best": rss[e] / min(rss.values())} for e in fits), key=lambda m: m["bic"])
+    chosen = next(c for c in same if c.effect == models[0]["effect"])
+    return chosen, {"family": top.family, "named": chosen.effect, "first_by_screening": top.effect, "models": models}
+
+
 def forward_selection(problem: Problem, cal: Calibration, first: list[CandidateResult], n_tests: int) -> Selection:
     """Name effects one at a time, rescreening the other families on top of those named.
 
@@ -98,6 +150,9 @@ def forward_selection(problem: Problem, cal: Calibration, first: list[CandidateR
             break
         if top is None:
             break
+        top, choice = choose_within_family(problem, cal, top, pool, out.selected)
+        if choice is not None:
+            out.family_choices.append(choice)
         out.selected.append(top)
         extra = np.column_stack([extra, top.columns_full]) if extra is not None else top.columns_full
         rest = [c.effect for c in pool if c.effect != top.effect and c.family != top.family]
@@ -155,9 +210,12 @@ def assess_confidence(problem: Problem, cal: Calibration, selection: Selection, 
     consistent = _run_consistency(problem, cal, top)
     # an aliased effect of another family with at least half the named one's ΔBIC, with or without a
     # random walk in the noise model, is a rival explanation: naming either is then a guess
+    # measured against the family's best evidence: a lag named over a gradient keeps the family's ΔBIC
     ar = {c.effect: c.evidence_ar for c in first}
+    family = [c for c in first if c.family == top.family] or [top]
+    own, own_ar = max(c.delta_bic for c in family), max(c.evidence_ar for c in family)
     rivals = sorted(e for e, b in cross_family_partners(top, aliases, first).items()
-                    if b >= 0.5 * top.delta_bic or ar[e] >= 0.5 * top.evidence_ar)
+                    if b >= 0.5 * own or ar[e] >= 0.5 * own_ar)
     confident = slow >= 0.5 and consistent is not False and not confounded and not rivals
     return Confidence("confident" if confident else "uncertain", slow, consistent, rivals)
 

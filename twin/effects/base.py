@@ -318,3 +318,10 @@ class Composition:
 
     def thermometer_shift_c(self) -> float:
         return sum(e.thermometer_shift_c() for e in self.effects if e.acts_on_thermometer)
+
+    def added(self, names: list[str], context: dict[str, Any]) -> Composition:
+        """This model with the named effects added whole: every amplitude calibrated, those fixed
+        by default too (an effect a user or the diagnosis adds is fitted as a whole)."""
+        present = [e.name for e in self.effects]
+        new = [get_effect(n)({**context, "fit_all": True}) for n in dict.fromkeys(names) if n not in present]
+        return Composition(self.effects + new)
