@@ -3,8 +3,8 @@
 The best-ranked significant candidate is named, unless a testable candidate of another family
 outranks it (more ΔBIC, short of a threshold); then nothing is named, the pair is reported as
 ``withheld`` and the confidence is uncertain. Between significant candidates of one family, the
-whole calibrated models decide (:func:`choose_within_family`). The label comes from the slow-residual share, run
-consistency, confounding and rival explanations.
+whole calibrated models decide (:func:`choose_within_family`). The label comes from the
+slow-residual share, run consistency, confounding and rival explanations.
 """
 
 from __future__ import annotations
@@ -208,9 +208,8 @@ def assess_confidence(problem: Problem, cal: Calibration, selection: Selection, 
     after = y2 - J2 @ np.linalg.lstsq(J2, y2, rcond=None)[0]
     slow = _slow_share(problem, cal.residual_avg, after)
     consistent = _run_consistency(problem, cal, top)
-    # an aliased effect of another family with at least half the named one's ΔBIC, with or without a
-    # random walk in the noise model, is a rival explanation: naming either is then a guess
-    # measured against the family's best evidence: a lag named over a gradient keeps the family's ΔBIC
+    # an aliased effect of another family with at least half the ΔBIC of the named one's family (either
+    # noise model) is a rival explanation: naming either is then a guess
     ar = {c.effect: c.evidence_ar for c in first}
     family = [c for c in first if c.family == top.family] or [top]
     own, own_ar = max(c.delta_bic for c in family), max(c.evidence_ar for c in family)
