@@ -165,12 +165,16 @@ GROUPING = {"temperature": "in temperature", "rate": "between heating, cooling a
 
 
 def family_choice_text(choice: dict) -> str:
-    """Why one effect of a family is named over another that screening ranked alike or higher."""
-    win, *rest = choice["models"]
-    others = "; ".join(f"{m['effect']}: {m['free_parameters']} parameters, residual {m['rss_over_best']:.4f}× the best, "
-                       f"BIC +{m['bic'] - win['bic']:.1f}" for m in rest)
-    return (f"Calibrated whole, {win['effect']} ({win['free_parameters']} parameters, residual "
-            f"{win['rss_over_best']:.4f}× the best) has the lowest BIC of its family ({others}).")
+    """Why one effect of a family is named over the others, calibrated whole."""
+    named, *rest = choice["models"]
+    fits = "; ".join(f"{m['effect']} {m['free_parameters']} parameters, residual {m['rss_over_best']:.4f}× the best"
+                     + (f", BIC {m['bic_minus_named']:+.1f}" if m is not named else "") for m in choice["models"])
+    richer = [m for m in rest if m["free_parameters"] > named["free_parameters"]]
+    why = ("it needs the fewest parameters, and no richer model is lower by more than 10 in BIC and 1 % in "
+           "residual RMS" if richer and all(m["free_parameters"] >= named["free_parameters"] for m in rest)
+           else "against the simpler models it is lower by more than 10 in BIC and 1 % in residual RMS" if
+           any(m["free_parameters"] < named["free_parameters"] for m in rest) else "its BIC is the lowest")
+    return f"Calibrated whole: {fits}. {named['effect']} is named: {why}."
 
 
 def _attribution_text(family: str, effect: str | None) -> str:

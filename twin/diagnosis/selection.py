@@ -72,17 +72,28 @@ def next_selection(pool: list[CandidateResult], cfg: DiagnosisConfig) -> Pick:
     return Pick(None, None)
 
 
+#: a richer model of one family displaces a simpler one only on very strong evidence, BIC lower by
+#: more than 10 (Kass & Raftery 1995, J. Am. Stat. Assoc. 90, 773), that also matters: a residual
+#: RMS on the prewhitened means lower by more than 1 % (significance is not importance at 10⁵ means)
+DECISIVE_BIC = 10.0
+MIN_RMS_GAIN = 0.01
+
+
 def choose_within_family(problem: Problem, cal: Calibration, top: CandidateResult, pool: list[CandidateResult],
                          named: list[CandidateResult]) -> tuple[CandidateResult, dict | None]:
-    """Among the significant candidates of ``top``'s family, the one whose whole calibrated model
-    has the lowest BIC, and the comparison (None when the family has one significant candidate).
+    """Among the significant candidates of ``top``'s family, the one to name, calibrated whole, and
+    the comparison (None when the family has one significant candidate).
 
     Screening gives every candidate a free amplitude, so two effects with one column shape tie
-    there, and a τ grid point decides. Calibrated whole they need not: a die lag acts through the
+    there and a τ grid point decides. Calibrated whole they differ: a die lag acts through the
     model's own tempcos and needs no amplitude of its own, a package gradient does. Each candidate
-    is calibrated whole on top of the model and the effects named so far; BIC = n ln(RSS/n) + k ln n
-    (Schwarz 1978) on the prewhitened block means, one AR model for all (the best fit's), k counting
-    offsets, free amplitudes and free nonlinear parameters.
+    is calibrated whole on top of the model and the effects named so far, on 1-s means (the 10-s
+    means it is judged on are the same sums); BIC = n ln(RSS/n) + k ln n (Schwarz 1978) on the
+    prewhitened 10-s means, one AR model for all (the best fit's), k counting offsets, free
+    amplitudes and free nonlinear parameters. The candidate with the fewest parameters is named
+    unless a richer one is lower in BIC by more than :data:`DECISIVE_BIC` and in residual RMS by
+    more than :data:`MIN_RMS_GAIN`: on a day-long log a thermometer's own 2-s lag, which no lag
+    model holds, makes the gradient's free amplitude worth 10 in BIC for a 0.1 % lower RMS.
 
     Parameters
     ----------
@@ -97,29 +108,45 @@ def choose_within_family(problem: Problem, cal: Calibration, top: CandidateResul
     Returns
     -------
     candidate : CandidateResult
-        ``top`` or a candidate of its family with a lower BIC.
+        The candidate named.
     comparison : dict or None
-        Family, the effect named, the first by screening, each model's BIC, k and RSS over the best.
+        Family, the effect named, the first by screening, each model's k, BIC against the named
+        one's and residual over the best.
     """
     cfg = problem.config
     same = [c for c in pool if c.family == top.family and c.significant and is_testable(c, cfg)]
     if len(same) < 2:
         return top, None
+    coarse = _on_second_means(problem)
     ctx = {k: v for k, v in (cal.composition.effects[0].context if cal.composition.effects else {}).items()
            if k != "fit_all"}
     base = cal.composition.added([c.effect for c in named], ctx)
-    fits = {c.effect: calibrate(problem, base.added([c.effect], ctx), intervals=False) for c in same}
+    fits = {c.effect: calibrate(coarse, base.added([c.effect], ctx), intervals=False) for c in same}
     best_fit = min(fits.values(), key=lambda f: float(f.residual_avg @ f.residual_avg))
-    n = problem.run_avg.size
-    rss = {}
-    for effect, f in fits.items():
-        rw = best_fit.ar.prewhiten(f.residual_avg, problem.run_avg)
-        rss[effect] = max(float(rw @ rw), 1e-300)
-    models = sorted(({"effect": e, "free_parameters": fits[e].free_parameters,
-                      "bic": n * np.log(rss[e] / n) + fits[e].free_parameters * np.log(n),
-                      "rss_over_best": rss[e] / min(rss.values())} for e in fits), key=lambda m: m["bic"])
-    chosen = next(c for c in same if c.effect == models[0]["effect"])
-    return chosen, {"family": top.family, "named": chosen.effect, "first_by_screening": top.effect, "models": models}
+    n = coarse.run_avg.size
+    rss = {e: max(float(np.sum(best_fit.ar.prewhiten(f.residual_avg, coarse.run_avg) ** 2)), 1e-300)
+           for e, f in fits.items()}
+    bic = {e: n * np.log(rss[e] / n) + fits[e].free_parameters * np.log(n) for e in fits}
+    simplest = min(fits, key=lambda e: (fits[e].free_parameters, bic[e]))
+    lowest = min(fits, key=bic.get)
+    decisive = bic[simplest] - bic[lowest] > DECISIVE_BIC and np.sqrt(rss[simplest] / rss[lowest]) > 1 + MIN_RMS_GAIN
+    chosen = lowest if decisive else simplest
+    models = sorted(({"effect": e, "free_parameters": fits[e].free_parameters, "bic_minus_named": bic[e] - bic[chosen],
+                      "rss_over_best": rss[e] / min(rss.values())} for e in fits),
+                    key=lambda m: (m["effect"] != chosen, m["bic_minus_named"]))
+    return (next(c for c in same if c.effect == chosen),
+            {"family": top.family, "named": chosen, "first_by_screening": top.effect, "models": models})
+
+
+def _on_second_means(problem: Problem) -> Problem:
+    """``problem`` on 1-s means (k samples, k dividing its 10-s blocks); itself at 1 Hz or slower."""
+    from twin.diagnosis.decimate import block_aligned_factor, decimate  # decimate imports the pipeline
+
+    k = block_aligned_factor(int(problem.rate_hz), int(round(problem.config.average_s * problem.rate_hz)))
+    if k <= 1:
+        return problem
+    dec, blocks = decimate(problem.m, k)
+    return Problem(dec, problem.config, time_since_power_on_s=blocks(problem.inputs.time_since_power_on_s))
 
 
 def forward_selection(problem: Problem, cal: Calibration, first: list[CandidateResult], n_tests: int) -> Selection:
