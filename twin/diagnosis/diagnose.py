@@ -19,9 +19,10 @@ Pipeline (diagnosis-methods §1), one module per step:
 5. **Forward selection** (:mod:`~twin.diagnosis.selection`) for several effects: the best-ranked
    significant candidate is named, unless a testable candidate of another family outranks it
    (more ΔBIC, short of a threshold); then nothing is named, the pair is reported as ``withheld``
-   and the confidence is uncertain. Significant candidates of one family are calibrated whole and
-   the lowest BIC is named (a lag needs no amplitude of its own; a gradient does). A confidence label from the slow-residual share and run
-   consistency.
+   and the confidence is uncertain. Significant candidates of one family are calibrated whole:
+   the one with the fewest parameters is named unless a richer one is decisively better (a lag
+   needs no amplitude of its own; a gradient does). A confidence label from the slow-residual
+   share and run consistency.
 
 The finding is worded by :mod:`~twin.diagnosis.language`, the JSON by :mod:`~twin.diagnosis.contract`.
 Compare is blind: it sees the scenario's ``twin``, ``device.sensor`` and ``test_plan`` and the

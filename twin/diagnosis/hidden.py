@@ -47,7 +47,8 @@ CASES = {
 #: detectable RMS over σ of the noise on 10-s means (diagnosis-methods §3.1 item 7)
 LEVEL_BANDS = {"clear": (1.5, 3.0), "marginal": (0.5, 1.0), "sub": (0.1, 0.3)}
 #: cases whose hidden term is linear in its amplitudes, so the level can be set exactly
-LINEAR_CASES = {"hysteresis", "creep_2term", "thermal_gradient", "scale_factor", "scale_factor_cubic", "aging", "aging_log", "warmup"}
+LINEAR_CASES = {"hysteresis", "creep_2term", "thermal_gradient", "scale_factor", "scale_factor_cubic", "aging",
+                "aging_log", "warmup"}
 
 
 def detectable_ratio(m: Measurement, twin: LoadedScenario, hidden_g: np.ndarray, noise_g: np.ndarray,

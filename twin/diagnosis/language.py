@@ -164,17 +164,21 @@ GROUPING = {"temperature": "in temperature", "rate": "between heating, cooling a
             "temperature_direction": "between heating and cooling at the same temperature", "time": "in time"}
 
 
+#: why one effect of a family is named (``reason`` of a family choice)
+FAMILY_CHOICE_REASON = {
+    "fewest_parameters": "it needs the fewest parameters, and no richer model is lower by more than 10 in BIC "
+                         "and 1 % in residual RMS",
+    "decisively_better": "against the simpler models it is lower by more than 10 in BIC and 1 % in residual RMS",
+    "lowest_bic": "its BIC is the lowest",
+}
+
+
 def family_choice_text(choice: dict) -> str:
     """Why one effect of a family is named over the others, calibrated whole."""
-    named, *rest = choice["models"]
     fits = "; ".join(f"{m['effect']} {m['free_parameters']} parameters, residual {m['rss_over_best']:.4f}× the best"
-                     + (f", BIC {m['bic_minus_named']:+.1f}" if m is not named else "") for m in choice["models"])
-    richer = [m for m in rest if m["free_parameters"] > named["free_parameters"]]
-    why = ("it needs the fewest parameters, and no richer model is lower by more than 10 in BIC and 1 % in "
-           "residual RMS" if richer and all(m["free_parameters"] >= named["free_parameters"] for m in rest)
-           else "against the simpler models it is lower by more than 10 in BIC and 1 % in residual RMS" if
-           any(m["free_parameters"] < named["free_parameters"] for m in rest) else "its BIC is the lowest")
-    return f"Calibrated whole: {fits}. {named['effect']} is named: {why}."
+                     + (f", BIC {m['bic_minus_named']:+.1f}" if m['effect'] != choice['named'] else "")
+                     for m in choice["models"])
+    return f"Calibrated whole: {fits}. {choice['named']} is named: {FAMILY_CHOICE_REASON[choice['reason']]}."
 
 
 def _attribution_text(family: str, effect: str | None) -> str:

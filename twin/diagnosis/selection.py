@@ -110,8 +110,9 @@ def choose_within_family(problem: Problem, cal: Calibration, top: CandidateResul
     candidate : CandidateResult
         The candidate named.
     comparison : dict or None
-        Family, the effect named, the first by screening, each model's k, BIC against the named
-        one's and residual over the best.
+        Family, the effect named, the first by screening, why (``fewest_parameters``,
+        ``decisively_better`` or, all k equal, ``lowest_bic``), each model's k, BIC against the
+        named one's and residual over the best.
     """
     cfg = problem.config
     same = [c for c in pool if c.family == top.family and c.significant and is_testable(c, cfg)]
@@ -131,11 +132,14 @@ def choose_within_family(problem: Problem, cal: Calibration, top: CandidateResul
     lowest = min(fits, key=bic.get)
     decisive = bic[simplest] - bic[lowest] > DECISIVE_BIC and np.sqrt(rss[simplest] / rss[lowest]) > 1 + MIN_RMS_GAIN
     chosen = lowest if decisive else simplest
+    reason = ("decisively_better" if chosen != simplest else "lowest_bic"
+              if len({f.free_parameters for f in fits.values()}) == 1 else "fewest_parameters")
     models = sorted(({"effect": e, "free_parameters": fits[e].free_parameters, "bic_minus_named": bic[e] - bic[chosen],
                       "rss_over_best": rss[e] / min(rss.values())} for e in fits),
                     key=lambda m: (m["effect"] != chosen, m["bic_minus_named"]))
     return (next(c for c in same if c.effect == chosen),
-            {"family": top.family, "named": chosen, "first_by_screening": top.effect, "models": models})
+            {"family": top.family, "named": chosen, "first_by_screening": top.effect, "reason": reason,
+             "models": models})
 
 
 def _on_second_means(problem: Problem) -> Problem:
@@ -238,7 +242,7 @@ def assess_confidence(problem: Problem, cal: Calibration, selection: Selection, 
     # an aliased effect of another family with at least half the ΔBIC of the named one's family (either
     # noise model) is a rival explanation: naming either is then a guess
     ar = {c.effect: c.evidence_ar for c in first}
-    family = [c for c in first if c.family == top.family] or [top]
+    family = [c for c in first if c.family == top.family]  # the first pick comes from `first`: never empty
     own, own_ar = max(c.delta_bic for c in family), max(c.evidence_ar for c in family)
     rivals = sorted(e for e, b in cross_family_partners(top, aliases, first).items()
                     if b >= 0.5 * own or ar[e] >= 0.5 * own_ar)
