@@ -42,6 +42,11 @@ class ImuLog:
         What the reader noticed.
     records : dict
         Other per-instance records, by message name (e.g. ArduPilot ``TCLR``), each a dict of arrays.
+    gyro_rad_s : numpy.ndarray or None
+        Angular rate, shape (n, 3) [rad/s] on the same rows as ``accel_g``, when the log has a
+        gyro of this IMU (ArduPilot ``GyrX..Z``, PX4 ``sensor_gyro``, gyro columns of a table).
+    gyro_device_id : int or None
+        The gyro driver's device id (PX4 ``TC_Gn_ID``, ArduPilot ``INS_GYRn_ID``), when logged.
     """
 
     time_s: np.ndarray
@@ -52,6 +57,8 @@ class ImuLog:
     source: str = ""
     notes: tuple[str, ...] = ()
     records: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    gyro_rad_s: np.ndarray | None = None
+    gyro_device_id: int | None = None
 
     def __post_init__(self):
         n = self.time_s.shape[0]
@@ -59,6 +66,14 @@ class ImuLog:
             raise MeasurementError(f"{self.source}: instance {self.instance}: time ({n}), temperature "
                                    f"{self.temperature_c.shape} and accel {self.accel_g.shape} disagree; "
                                    "expected n, (n,) and (n, 3)")
+        if self.gyro_rad_s is not None and self.gyro_rad_s.shape != (n, 3):
+            raise MeasurementError(f"{self.source}: instance {self.instance}: gyro {self.gyro_rad_s.shape} "
+                                   f"does not match the {n} accelerometer rows; expected ({n}, 3)")
+
+    @property
+    def has_gyro(self) -> bool:
+        """Whether the log carries this IMU's angular rate."""
+        return self.gyro_rad_s is not None
 
     def __len__(self) -> int:
         return int(self.time_s.shape[0])
