@@ -7,6 +7,8 @@ The effect library wraps these kernels; they stay pure functions of arrays.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -139,3 +141,85 @@ def _compile_play():
 def warmup_shape(time_since_power_on_s: np.ndarray, tau_s: float) -> np.ndarray:
     """exp(−t_on/τ): the transient after each power-on (diagnosis-methods §2g)."""
     return np.exp(-np.asarray(time_since_power_on_s, float) / tau_s)
+
+
+def lowpass_at(time_s: np.ndarray, x: np.ndarray, tau_s: float) -> np.ndarray:
+    """Causal first-order low-pass LP_τ(x) at the given sample times, whose steps may vary.
+
+    Exact for piecewise-linear x (first-order hold), from equilibrium at x[0]: over a step of
+    h = Δt/τ, y_n = e·y_{n−1} + b0·x_n + b1·x_{n−1} with e = exp(−h), b0 = 1 − (1 − e)/h,
+    b1 = (1 − e)/h − e — the discretisation of :func:`lowpass`, with its coefficients per step
+    (a logger's clock jitters: a uniform-step filter on it is wrong by the jitter). Run as
+    y_n = y_{n−1} + b0·(x_n − y_{n−1}) + b1·(x_{n−1} − y_{n−1}), so the DC gain is exactly 1.
+    """
+    t = np.asarray(time_s, float)
+    x = np.asarray(x, float)
+    if tau_s < 0:
+        raise ValueError(f"tau_s must be >= 0, got {tau_s}")
+    if tau_s == 0 or x.size < 2:
+        return x.copy()
+    b0, b1 = _foh_coefficients(np.diff(t) / tau_s)
+    out = np.empty_like(x)
+    kernel = _lag_kernel() if (_LAG_KERNEL or x.size >= LAG_COMPILED_MIN_SIZE) else None
+    if kernel is None:
+        y = x[0]
+        out[0] = y
+        for k in range(1, x.size):
+            y = y + b0[k - 1] * (x[k] - y) + b1[k - 1] * (x[k - 1] - y)
+            out[k] = y
+        return out
+    kernel(np.ascontiguousarray(x), b0, b1, out)
+    return out
+
+
+def _foh_coefficients(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(b0, b1) of the first-order hold per step h = Δt/τ ≥ 0 (h = 0: the lag does not move).
+
+    b0 = (h − 1 + e^{−h})/h cancels for small h, so there it is the series
+    Σ_{k≥2} (−1)^k h^{k−1}/k! (16 terms: truncation < 1e-17 relative for h < 0.5).
+    """
+    h = np.asarray(h, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = np.where(h > 0, -np.expm1(-h) / h, 1.0)  # (1 − e)/h, → 1 as h → 0
+    b0 = 1.0 - q
+    small = h < 0.5
+    if np.any(small):
+        hs = h[small]
+        series = np.zeros_like(hs)
+        for k in range(17, 1, -1):  # Horner on Σ (−1)^k h^{k−1}/k!
+            series = series * hs + (-1.0) ** k / math.factorial(k)
+        b0[small] = series * hs
+    b1 = q - np.exp(-h)
+    return b0, b1
+
+
+LAG_COMPILED_MIN_SIZE = 2_000  # below, a Python loop beats loading the compiled kernel
+_LAG_KERNEL: list = []
+
+
+def _lag_kernel():
+    """The numba kernel of the variable-step lag recursion, or None (no numba, TDE_TWIN_NO_NUMBA=1)."""
+    if not _LAG_KERNEL:
+        _LAG_KERNEL.append(_compile_lag())
+    return _LAG_KERNEL[0]
+
+
+def _compile_lag():
+    import os
+
+    if os.environ.get("TDE_TWIN_NO_NUMBA"):
+        return None
+    try:
+        import numba
+    except ImportError:  # the Python loop gives the same output, slower
+        return None
+
+    @numba.njit(cache=True, nogil=True)
+    def lag_loop(x, b0, b1, out):  # pragma: no cover - compiled
+        y = x[0]
+        out[0] = y
+        for k in range(1, x.size):
+            y = y + b0[k - 1] * (x[k] - y) + b1[k - 1] * (x[k - 1] - y)
+            out[k] = y
+
+    return lag_loop

@@ -117,7 +117,7 @@ def _csv(path, temperature_c, n=400):
 
 
 @pytest.mark.parametrize("case,expected", [
-    ("narrow", "temperature range 4.00 °C < 10 °C"),
+    ("narrow", "l.csv IMU0: 400 s static, 20.0–24.0 °C after excluding nothing: < 10 °C"),
     ("nan", "first at line(s) 102"),  # the reader names the row before calibration sees it
     ("frozen", "frozen"),
     ("no_accel", "sensor_accel"),

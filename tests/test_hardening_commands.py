@@ -200,6 +200,45 @@ def test_corrupt_calibration_documents(tmp_path, case, command):
     assert cal.exists()
 
 
+def _firmware(method: str, *keys):
+    return ("imus", 0, "methods", method, "firmware", *keys)
+
+
+def _append_term(method: str):
+    def edit(doc):
+        for axis in "xyz":
+            doc["imus"][0]["methods"][method]["firmware"]["coefficients"][axis]["values"].append(1e-9)
+    return edit
+
+
+# values the firmware cannot hold, at the exporter that would write them (PX4 TC_An_*, ArduPilot INS_TCALn_*)
+UNHOLDABLE = {
+    ("px4", "1e45"): (_set(_firmware("px4", "coefficients", "x", "values", 1), 1e45),
+                      "TC_A0_X1_0 = 1e+45 is beyond float32"),
+    ("px4", "tmin_above_tmax"): (_set(_firmware("px4", "temperature_c", "tmin"), 99.0),
+                                 "TC_A0_TMIN = 99 °C is not below TC_A0_TMAX"),
+    ("px4", "degree4"): (_append_term("px4"), "axis x holds 5 coefficients; PX4 applies X0..X3"),
+    ("px4", "slot300"): (_set(_firmware("px4", "method_parameters", "instance"), 300),
+                         "instance 300 has no TC_A300_* parameters"),
+    ("ardupilot", "1e45"): (_set(_firmware("ardupilot", "coefficients", "x", "values", 1), 1e45),
+                            "INS_TCAL1_ACC2_X = 1e+51 is beyond float32"),
+    ("ardupilot", "tmin_above_tmax"): (_set(_firmware("ardupilot", "temperature_c", "tmin"), 99.0),
+                                       "INS_TCAL1_TMIN = 99 °C is not below INS_TCAL1_TMAX"),
+    ("ardupilot", "degree4"): (_append_term("ardupilot"), "axis x holds 4 coefficients; ArduPilot applies exactly"),
+    ("ardupilot", "slot300"): (_set(_firmware("ardupilot", "method_parameters", "instance"), 300),
+                               "instance 300 has no INS_TCAL300_* parameters"),
+    ("px4", "imu300"): (_set(("imus", 0, "instance"), 300), "imus[0].instance: got 300, expected an IMU instance 0..3"),
+    ("ardupilot", "imu-1"): (_set(("imus", 0, "instance"), -1), "imus[0].instance: got -1"),
+}
+
+
+@pytest.mark.parametrize("fmt, case", sorted(UNHOLDABLE))
+def test_values_the_firmware_cannot_hold_are_refused_and_nothing_is_written(tmp_path, fmt, case):
+    edit, fragment = UNHOLDABLE[fmt, case]
+    _edited(tmp_path, edit)
+    refused(tmp_path, ["firmware", "c.json", "--format", fmt, "-o", "o.txt"], fragment)
+
+
 def test_the_trimmed_document_still_exports(tmp_path):
     shutil.copy(CAL, tmp_path / "c.json")
     with contextlib.chdir(tmp_path):

@@ -89,3 +89,26 @@ def read_text(path: str | Path, what: str, error: type[Exception]) -> str:
         raise error(f"{p}: {what} is not UTF-8 text (byte {exc.start}); expected a text file") from None
     except OSError as exc:
         raise error(f"{p}: cannot read {what}: {exc.strerror or exc}") from None
+
+
+def strict_json(value):
+    """``value`` as plain JSON data: NumPy scalars and arrays as Python numbers and lists, tuples as
+    lists, and every NaN or infinity as ``None`` (JSON has no NaN; a reader that meets a bare
+    ``NaN`` token fails, and strict parsers are the norm outside Python)."""
+    import math
+
+    import numpy as np
+
+    if isinstance(value, dict):
+        return {str(k): strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_json(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return strict_json(value.tolist())
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    return value

@@ -7,30 +7,29 @@ to a log, the same arithmetic ``twin apply`` and the round-trip tests use.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from twin.calibration.lag import as_log, lagged_c, make_X
-from twin.calibration.workflow import SCHEMA, SCHEMA_VERSION
+from twin.calibration.correction import CalibrationDocumentError, correction_g
+from twin.calibration.correction import firmware_cal as _firmware_cal
+from twin.calibration.workflow import MAX_DEVICE_ID, PX4_INSTANCES, SCHEMA, SCHEMA_VERSION
 from twin.errors import TwinError
 from twin.firmware import (
-    G0_M_S2,
-    ardupilot_parm_text,
+    FirmwareValueError,
     c_header,
     cal_from_dict,
     cal_to_dict,
-    px4_params_text,
+    checked_ardupilot_parm_text,
+    checked_px4_params_text,
 )
-from twin.io import atomic_write_text, read_text
+from twin.io import atomic_write_text, read_text, strict_json
 
 FORMATS = ("px4", "ardupilot", "json", "c")
-
-
-class CalibrationDocumentError(TwinError):
-    """A calibration document is unreadable, of another schema, or lacks what is asked of it."""
 
 
 def read_calibration(path: str | Path) -> dict:
@@ -70,21 +69,28 @@ def check_document(doc: dict, path: str) -> None:
     for k, e in enumerate(imus):
         at = f"{path}: imus[{k}]"
         inst, dev, span, rate = (e.get(key) for key in ("instance", "device_id", "temperature_span_c", "sample_rate_hz"))
-        if isinstance(inst, bool) or not isinstance(inst, int) or not 0 <= inst < 256:
-            raise CalibrationDocumentError(f"{at}.instance: got {inst!r}, expected an IMU instance 0..255")
+        if isinstance(inst, bool) or not isinstance(inst, int) or inst not in PX4_INSTANCES:
+            raise CalibrationDocumentError(f"{at}.instance: got {inst!r}, expected an IMU instance 0..3 "
+                                           "(PX4 TC_A0..3; ArduPilot INS_TCAL1..3 for 0..2)")
         if isinstance(e.get("samples"), bool) or not isinstance(e.get("samples"), int) or e["samples"] < 0:
             raise CalibrationDocumentError(f"{at}.samples: got {e.get('samples')!r}, expected a whole number >= 0")
-        if dev is not None and (isinstance(dev, bool) or not isinstance(dev, int)):
-            raise CalibrationDocumentError(f"{at}.device_id: got {dev!r}, expected an integer or null")
-        if not (isinstance(span, list) and len(span) == 2 and all(_finite(v) for v in span) and span[0] <= span[1]):
-            raise CalibrationDocumentError(f"{at}.temperature_span_c: got {span!r}, expected [low, high] in °C, finite")
+        if dev is not None and (isinstance(dev, bool) or not isinstance(dev, int) or not 0 < dev <= MAX_DEVICE_ID):
+            raise CalibrationDocumentError(f"{at}.device_id: got {dev!r}, expected an integer 1..{MAX_DEVICE_ID} "
+                                           "(uint32) or null")
+        if not (isinstance(span, list) and len(span) == 2 and all(_finite(v) for v in span) and span[0] < span[1]):
+            raise CalibrationDocumentError(f"{at}.temperature_span_c: got {span!r}, expected [low, high] in °C, "
+                                           "finite, low < high")
         if not (_finite(rate) and 0 < rate < 1e6):
             raise CalibrationDocumentError(f"{at}.sample_rate_hz: got {rate!r}, expected a finite rate > 0 [Hz]")
         methods, rec, val = e.get("methods"), e.get("recommended"), e.get("validation")
         if not (isinstance(methods, dict) and methods and all(isinstance(m, dict) for m in methods.values())):
             raise CalibrationDocumentError(f"{at}.methods: expected a mapping of method names to fitted methods")
-        if not (isinstance(rec, dict) and all(isinstance(v, str) for v in rec.values())):
-            raise CalibrationDocumentError(f"{at}.recommended: expected a mapping of targets to method names")
+        if not (isinstance(rec, dict) and all(v is None or isinstance(v, str) for v in rec.values())):
+            raise CalibrationDocumentError(f"{at}.recommended: expected a mapping of targets to method names or null")
+        flags = e.get("flags", {})
+        if not (isinstance(flags, dict) and all(isinstance(f, list) and all(isinstance(x, str) for x in f)
+                                                for f in flags.values())):
+            raise CalibrationDocumentError(f"{at}.flags: expected a mapping of method names to lists of reasons")
         if not (isinstance(val, dict) and isinstance(val.get("heldout_rms_mg"), dict)):
             raise CalibrationDocumentError(f"{at}.validation: expected the held-out RMS per method")
         temperature_c, time_s = np.linspace(span[0], span[1], 16), np.arange(16.0)
@@ -98,6 +104,8 @@ def check_document(doc: dict, path: str) -> None:
                 with warnings.catch_warnings(), np.errstate(all="ignore"):
                     warnings.simplefilter("ignore")
                     corr = correction_g(data, time_s, temperature_c)
+            except FirmwareValueError:
+                raise  # already one line naming the parameter and what the firmware holds
             except (KeyError, TypeError, ValueError, IndexError, TwinError) as exc:
                 raise CalibrationDocumentError(f"{at}.methods.{name}: malformed ({type(exc).__name__}: "
                                                f"{' '.join(str(exc).split())[:160]}); expected what twin calibrate wrote") from None
@@ -128,62 +136,117 @@ def imu_entry(doc: dict, instance: int | None, device_id: int | None = None, sou
     return entry
 
 
-def method_entry(entry: dict, method: str | None, target: str = "c") -> tuple[str, dict]:
-    """(name, data) of ``method``, or of the recommended one for ``target`` when None."""
-    name = method or entry["recommended"][target]
+def method_entry(entry: dict, method: str | None, target: str = "c", force: bool = False) -> tuple[str, dict]:
+    """(name, data) of ``method``, or of the recommended one for ``target`` when None.
+
+    A method the calibration flagged as implausible is refused unless ``force``: what goes into a
+    vehicle must not be a fit of motion, a crash or a time constant the data could not fix.
+    """
+    flags = entry.get("flags") or {}
+    name = method or entry["recommended"].get(target)
+    where = f"IMU instance {entry['instance']}"
+    if name is None:
+        why = "; ".join(f for m, fl in flags.items() for f in fl[:1]) or "none fitted"
+        raise CalibrationDocumentError(f"{where}: no plausible method for {target} ({why}); inspect the report, "
+                                       "then name one with --method and --force to export it anyway")
     if name not in entry["methods"]:
         raise CalibrationDocumentError(f"method {name!r} is not in the calibration; it holds "
                                        f"{sorted(entry['methods'])}")
+    if flags.get(name) and not force:
+        raise CalibrationDocumentError(f"{where}: method {name!r} is flagged: {flags[name][0]}"
+                                       f"{f' (and {len(flags[name]) - 1} more)' if len(flags[name]) > 1 else ''}; "
+                                       "pass --force to export it anyway")
     return name, entry["methods"][name]
 
 
-def _firmware_cal(data: dict, name: str):
-    if data.get("kind") != "firmware":
-        raise CalibrationDocumentError(f"method {name!r} is not a firmware polynomial")
-    return cal_from_dict(data["firmware"], name)
+@dataclass(frozen=True)
+class Export:
+    """What ``twin firmware`` wrote: the file, its line count, and what the user should know."""
+
+    path: Path
+    lines: int
+    notes: tuple[str, ...] = ()
 
 
-def correction_g(data: dict, time_s, temperature_c, run=None) -> np.ndarray:
-    """What a method subtracts from the reading [g], (n, 3).
+def _with_device_id(cal, entry: dict, device_id: int | None, sensor: str):
+    """A PX4 calibration carrying the sensor's device id, or a refusal saying why the file would be inert.
 
-    Firmware polynomials give the firmware's own offset; the lag-aware twin gives its modelled
-    drift minus its level (the constant the ordinary accelerometer calibration owns). A polynomial
-    without lags (``tau_die_s`` absent) is evaluated in the raw temperature.
+    PX4 applies ``TC_An`` only to the sensor whose ``device_id`` equals ``TC_An_ID``
+    (``TemperatureCompensation::set_sensor_id``); an id of 0 matches no sensor.
     """
-    T = np.asarray(temperature_c, float)
-    if data.get("kind") == "firmware":
-        return _firmware_cal(data, "firmware").offset_m_s2(T) / G0_M_S2
-    coef = np.asarray(data["coef_mg"], float)
-    out = np.empty((T.size, coef.shape[0]))
-    log = as_log(make_X(np.asarray(time_s, float), T, run))
-    tau_die = data.get("tau_die_s")
-    for a in range(coef.shape[0]):
-        arg = (lagged_c(log, tau_die[a]) if tau_die is not None else T) - data["reference_c"]
-        out[:, a] = np.polyval(coef[a, ::-1], arg) - coef[a, 0]
-        tau_rate = (data.get("tau_rate_s") or [None] * 3)[a]
-        if tau_rate is not None:
-            out[:, a] += data["rate_mg_per_c"][a] * (T - lagged_c(log, tau_rate))
-    return out * 1e-3
+    logged = cal.device_id or None
+    if device_id is not None and logged is not None and device_id != logged:
+        raise CalibrationDocumentError(f"IMU instance {entry['instance']}: the calibration is for {sensor} device_id "
+                                       f"{logged}, --device-id says {device_id}; expected the same sensor")
+    chosen = logged if logged is not None else device_id
+    if chosen is None:
+        raise CalibrationDocumentError(
+            f"IMU instance {entry['instance']}: no {sensor} device id; PX4 applies TC_{'A' if sensor == 'accel' else 'G'}"
+            f"{cal.instance} only to the sensor whose device_id equals its ID, so this file would load and change "
+            f"nothing; pass --device-id (the vehicle's CAL_{'ACC' if sensor == 'accel' else 'GYRO'}{cal.instance}_ID) "
+            "or calibrate from a log that records it")
+    return dataclasses.replace(cal, device_id=int(chosen))
+
+
+def _gyro_cal(entry: dict, target: str, force: bool):
+    """The entry's gyro calibration for ``target`` (px4, ardupilot), or None when the log had no gyro."""
+    gyro = entry.get("gyro")
+    if not gyro or target not in gyro.get("methods", {}):
+        return None
+    if gyro.get("flags", {}).get(target) and not force:
+        raise CalibrationDocumentError(f"IMU instance {entry['instance']}: gyro method {target!r} is flagged: "
+                                       f"{gyro['flags'][target][0]}; pass --force to export it anyway")
+    return cal_from_dict(gyro["methods"][target]["firmware"], f"imus.gyro.{target}")
 
 
 def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | None = None,
-                       instance: int | None = None, sample_rate_hz: float | None = None) -> Path:
-    """Write the firmware file ``fmt`` (px4, ardupilot, json, c) for the document's IMUs."""
+                       instance: int | None = None, sample_rate_hz: float | None = None,
+                       device_id: int | None = None, force: bool = False) -> Export:
+    """Write the firmware file ``fmt`` (px4, ardupilot, json, c) for the document's IMUs.
+
+    PX4 and ArduPilot files carry the gyro calibration when the log had the gyro, and no gyro line
+    otherwise (a zero line would erase the vehicle's own). Every value is checked as the firmware
+    holds it, and the text is read back as the ground station loads it before the atomic rename.
+
+    Raises
+    ------
+    CalibrationDocumentError
+        A flagged method without ``force``, a PX4 file without a device id, a ``device_id`` for
+        several IMUs or in conflict with the calibrated one.
+    FirmwareValueError
+        A value the firmware cannot hold (non-finite, beyond float32, TMIN ≥ TMAX, degree > 3).
+    """
     if fmt not in FORMATS:
         raise CalibrationDocumentError(f"--format must be one of {', '.join(FORMATS)}, got {fmt!r}")
     entries = doc["imus"] if instance is None else [imu_entry(doc, instance)]
+    if device_id is not None and len(entries) > 1:
+        raise CalibrationDocumentError(f"--device-id names one sensor, but the calibration holds IMU instances "
+                                       f"{[e['instance'] for e in entries]}; choose one with --imu")
     path = Path(path)
-    if fmt == "px4":
-        cals = [_firmware_cal(method_entry(e, method or "px4", "px4")[1], "px4") for e in entries]
-        return atomic_write_text(path, px4_params_text(cals))
-    if fmt == "ardupilot":
-        cals = [_firmware_cal(method_entry(e, method or "ardupilot", "ardupilot")[1], "ardupilot") for e in entries]
-        return atomic_write_text(path, "".join(ardupilot_parm_text(c) for c in cals))
+    if fmt in ("px4", "ardupilot"):
+        accel, gyros, notes = [], [], []
+        for e in entries:
+            name, data = method_entry(e, method or fmt, fmt, force)
+            cal = _firmware_cal(data, name)
+            gyro = _gyro_cal(e, fmt, force)
+            if fmt == "px4":
+                cal = _with_device_id(cal, e, device_id, "accel")
+                gyro = gyro and _with_device_id(gyro, e, (e.get("gyro") or {}).get("device_id"), "gyro")
+            accel.append(cal)
+            if gyro is not None:
+                gyros.append(gyro)
+            notes.append(f"IMU {e['instance']}: accel" + (" and gyro" if gyro is not None else
+                                                           " only (the log had no gyro: no gyro line, so the "
+                                                           "vehicle keeps its own gyro calibration)"))
+        text = (checked_px4_params_text(accel, gyro=gyros or None) if fmt == "px4"
+                else checked_ardupilot_parm_text(accel, gyro=gyros or None))
+        atomic_write_text(path, text)
+        return Export(path, text.count("\n"), tuple(notes))
     if len(entries) > 1:
         raise CalibrationDocumentError(f"--format {fmt} writes one IMU; name it with --imu "
                                        f"(instances {[e['instance'] for e in entries]})")
     entry = entries[0]
-    name, data = method_entry(entry, method, "c")
+    name, data = method_entry(entry, method, "c", force)
     provenance = {"inputs": doc["inputs"], "software_version": doc["software_version"],
                   "validation": entry["validation"]["heldout_rms_mg"].get(name), "method": name}
     if fmt == "json":
@@ -193,10 +256,12 @@ def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | N
             out = {"schema_version": SCHEMA_VERSION, "kind": "lag_aware_accel_temperature_cal", "method": name,
                    "instance": entry["instance"], "device_id": entry["device_id"],
                    "parameters": {k: v for k, v in data.items() if k != "kind"}, "provenance": provenance}
-        return atomic_write_text(path, json.dumps(out, indent=2, allow_nan=False) + "\n")
-    rate = sample_rate_hz or entry["sample_rate_hz"]
-    if data.get("kind") == "firmware":
-        return atomic_write_text(path, c_header(_firmware_cal(data, name), rate))
-    from twin.firmware import lag_aware_c_header
+        text = json.dumps(strict_json(out), indent=2, allow_nan=False) + "\n"
+    elif data.get("kind") == "firmware":
+        text = c_header(_firmware_cal(data, name), sample_rate_hz or entry["sample_rate_hz"])
+    else:
+        from twin.firmware import lag_aware_c_header
 
-    return atomic_write_text(path, lag_aware_c_header(data, rate))
+        text = lag_aware_c_header(data, sample_rate_hz)
+    atomic_write_text(path, text)
+    return Export(path, text.count("\n"))

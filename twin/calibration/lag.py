@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.drift import lowpass
+from sim.drift import lowpass, lowpass_at
 from twin.arrays import run_slices
 from twin.errors import TwinError
 
@@ -65,12 +65,11 @@ def _lag_segment(time_s: np.ndarray, temperature_c: np.ndarray, tau_s: float) ->
         return temperature_c.copy()
     dt = np.diff(time_s)
     step = float(np.median(dt))
-    # sim.drift.lowpass assumes a uniform step; jittered or gappy clocks go through a uniform grid
-    if np.max(np.abs(np.cumsum(dt) - step * np.arange(1, dt.size + 1))) <= 0.05 * step:
+    if np.all(np.abs(dt - step) <= 1e-9 * step):  # a uniform clock: one IIR filter
         return lowpass(temperature_c, step, tau_s)
-    grid = time_s[0] + step * np.arange(int(np.ceil((time_s[-1] - time_s[0]) / step)) + 1)
-    lagged = lowpass(np.interp(grid, time_s, temperature_c), step, tau_s)
-    return np.interp(time_s, grid, lagged)
+    # a jittered or gappy clock: the same exact discretisation with each step's own coefficients,
+    # so a firmware running the recursion on its measured time steps reproduces it
+    return lowpass_at(time_s, temperature_c, tau_s)
 
 
 def lagged_c(log: ThermalLog, tau_s: float) -> np.ndarray:

@@ -13,13 +13,33 @@ import numpy as np
 
 from twin.calibration.lag import as_log, train_mask
 from twin.calibration.models import AXES, CompensatorBase
-from twin.firmware import G0_M_S2, fit_ardupilot, fit_px4
+from twin.firmware import (
+    G0_M_S2,
+    ardupilot_vehicle_offsets,
+    checked_ardupilot_parm_text,
+    checked_px4_params_text,
+    fit_ardupilot,
+    fit_ardupilot_gyro,
+    fit_px4,
+    fit_px4_gyro,
+    parse_ardupilot_parm,
+    parse_px4_params,
+    px4_vehicle_offsets,
+)
+
+# the firmwares work in SI units: the accelerometer methods take g and hand the fit m/s²
+UNIT = {"accel": (G0_M_S2, "m/s²"), "gyro": (1.0, "rad/s")}
 
 
 class _FirmwareMethod(CompensatorBase):
-    """Fit on the training rows with the firmware tool's method; predict = level + its offset(T)."""
+    """Fit on the training rows with the firmware tool's method; predict = level + its offset(T).
 
-    def _fit_cal(self, time_s, temperature_c, accel_m_s2):  # pragma: no cover - subclasses
+    ``y`` is the accelerometer in g (``sensor = "accel"``) or the gyro in rad/s (``"gyro"``).
+    """
+
+    sensor = "accel"
+
+    def _fit_cal(self, time_s, temperature_c, samples_si):  # pragma: no cover - subclasses
         raise NotImplementedError
 
     def fit(self, X, y, mask=None):
@@ -27,23 +47,28 @@ class _FirmwareMethod(CompensatorBase):
         log = as_log(X)
         keep = train_mask(y, log.time_s.size, mask)
         y = np.asarray(y, float)
-        self.cal_ = self._fit_cal(log.time_s[keep], log.temperature_c[keep], y[keep] * G0_M_S2)
-        self.level_g_ = np.mean(y[keep] - self.cal_.offset_m_s2(log.temperature_c[keep]) / G0_M_S2, axis=0)
+        scale = UNIT[self.sensor][0]
+        self.cal_ = self._fit_cal(log.time_s[keep], log.temperature_c[keep], y[keep] * scale)
+        self.level_g_ = np.mean(y[keep] - self.cal_.offset(log.temperature_c[keep]) / scale, axis=0)
         return self
 
-    def predict(self, X) -> np.ndarray:
-        """Modelled reading [g], (n, 3): the training level plus the firmware's offset at T."""
-        return self.level_g_ + self.cal_.offset_m_s2(as_log(X).temperature_c) / G0_M_S2
+    def offset(self, X) -> np.ndarray:
+        """The firmware's offset at each row's temperature, in the unit of ``y`` (n, 3)."""
+        return self.cal_.offset(as_log(X).temperature_c) / UNIT[self.sensor][0]
 
-    def compensate(self, X, accel_g: np.ndarray) -> np.ndarray:
-        """What the firmware outputs: ``accel_g`` minus its thermal offset [g]."""
-        return np.asarray(accel_g, float) - self.cal_.offset_m_s2(as_log(X).temperature_c) / G0_M_S2
+    def predict(self, X) -> np.ndarray:
+        """Modelled reading, (n, 3): the training level plus the firmware's offset at T."""
+        return self.level_g_ + self.offset(X)
+
+    def compensate(self, X, reading: np.ndarray) -> np.ndarray:
+        """What the firmware outputs: ``reading`` minus its thermal offset."""
+        return np.asarray(reading, float) - self.offset(X)
 
     def equation(self) -> str:
-        """The fitted offset polynomial per axis, as the firmware evaluates it [m/s²]."""
-        p = self.cal_.polynomial
+        """The fitted offset polynomial per axis, as the firmware evaluates it (SI units)."""
+        p, unit = self.cal_.polynomial, UNIT[self.sensor][1]
         return "\n".join(f"{ax}: offset = " + " ".join(f"{c:+.6g}·(T − {p.tref_c:g} °C)^{k}" for k, c in
-                                                       enumerate(p.coefficients[a])) + " m/s², T clipped to "
+                                                       enumerate(p.coefficients[a])) + f" {unit}, T clipped to "
                          f"[{p.tmin_c:.1f}, {p.tmax_c:.1f}] °C" for a, ax in enumerate(AXES))
 
 
@@ -80,3 +105,77 @@ class ArduPilotMethod(_FirmwareMethod):
 
     def _fit_cal(self, time_s, temperature_c, accel_m_s2):
         return fit_ardupilot(temperature_c, accel_m_s2, time_s=time_s, instance=self.instance)
+
+
+class Px4GyroMethod(Px4Method):
+    """PX4's gyro thermal calibration (``TC_G{instance}_*``); ``y`` in rad/s."""
+
+    sensor = "gyro"
+
+    def _fit_cal(self, time_s, temperature_c, gyro_rad_s):
+        return fit_px4_gyro(temperature_c, gyro_rad_s, device_id=self.device_id, instance=self.instance)
+
+
+class ArduPilotGyroMethod(ArduPilotMethod):
+    """ArduPilot's gyro temperature calibration (``INS_TCAL{instance}_GYR*``); ``y`` in rad/s."""
+
+    sensor = "gyro"
+
+    def _fit_cal(self, time_s, temperature_c, gyro_rad_s):
+        return fit_ardupilot_gyro(temperature_c, gyro_rad_s, time_s=time_s, instance=self.instance)
+
+
+# PX4 needs a device id to apply a calibration at all; the validation below only runs the arithmetic
+VALIDATION_DEVICE_ID = 1
+
+
+class AsTheVehicleApplies(CompensatorBase):
+    """A firmware method scored as the vehicle applies the file we write for it.
+
+    ``fit`` fits the wrapped method, writes its parameter file exactly as ``twin firmware`` does
+    (checked and read back) and parses it as the ground station loads it; ``predict`` applies the
+    parsed values as the firmware does: float32, the clamp, and for PX4 the offset republished only
+    when the temperature has moved more than 1 °C, checked once a second
+    (``twin.firmware.px4_vehicle_offsets``); for ArduPilot the correction re-referenced at the
+    calibration temperature (``twin.firmware.ardupilot_vehicle_offsets``).
+
+    Parameters
+    ----------
+    method : Px4Method, ArduPilotMethod or their gyro variants
+    """
+
+    def __init__(self, method):
+        self.method = method
+
+    def fit(self, X, y, mask=None):
+        """Fit the method on ``mask``'s rows and load its file as the vehicle would. Returns self."""
+        import dataclasses
+
+        self.inner_ = self.method.clone().fit(X, y, mask)
+        cal = self.inner_.cal_
+        if isinstance(self.method, Px4Method):
+            if not cal.device_id:
+                cal = dataclasses.replace(cal, device_id=VALIDATION_DEVICE_ID)
+            self.device_id_ = cal.device_id
+            self.values_ = parse_px4_params(checked_px4_params_text([cal])).values
+        else:
+            self.values_ = parse_ardupilot_parm(checked_ardupilot_parm_text([cal]))
+        self.level_g_ = self.inner_.level_g_
+        return self
+
+    def offset(self, X) -> np.ndarray:
+        """What the vehicle subtracts at each row, in the unit of ``y`` (n, 3)."""
+        log = as_log(X)
+        sensor, scale = self.method.sensor, UNIT[self.method.sensor][0]
+        if isinstance(self.method, Px4Method):
+            out = np.empty((log.time_s.size, 3))
+            for s in log.segments():  # each run is a boot: the module starts unpublished
+                out[s] = px4_vehicle_offsets(self.values_, log.time_s[s], log.temperature_c[s],
+                                             self.method.instance, sensor, device_id=self.device_id_)
+            return out / scale
+        return ardupilot_vehicle_offsets(self.values_, log.temperature_c, self.method.instance,
+                                         sensor=sensor).astype(float) / scale
+
+    def predict(self, X) -> np.ndarray:
+        """The training level plus the offset the vehicle applies."""
+        return self.level_g_ + self.offset(X)

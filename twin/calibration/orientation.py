@@ -1,7 +1,8 @@
 """Static orientations (six-position or tumble tests) and per-axis offset(T) and scale factor(T).
 
-A static segment is a stretch of low accelerometer variance; its mean is gravity seen by the
-sensor. Segments are clustered by direction into orientations; axis-aligned ones get a label
+A static segment is a static stretch of the log-quality stage (:mod:`twin.measurement.quality`:
+still by σ, |a| and the gyro, 2 s cut beside every move); its mean is gravity seen by the sensor.
+Segments are clustered by direction into orientations; axis-aligned ones get a label
 (``+x`` … ``−z``) and a nominal gravity projection of ±1 g or 0 per axis, which is the truth the
 fit ``a = (1 + s(T))·g_true + o(T)`` needs. Gravity is the unit: results are in local g.
 """
@@ -15,8 +16,10 @@ from scipy.stats import t as student_t
 
 from twin.calibration.models import AXES
 from twin.errors import TwinError
+from twin.measurement import ImuLog
+from twin.measurement.quality import FACE_LABELS, LogQuality, assess_log, cluster_directions
 
-LABELS = tuple(f"{s}{a}" for a in AXES for s in "+-")
+LABELS = FACE_LABELS
 
 
 @dataclass(frozen=True)
@@ -64,17 +67,18 @@ class OrientationReport:
 def detect_static_segments(time_s, accel_g, temperature_c=None, window_s: float = 2.0,
                            max_std_mg: float | None = None, min_duration_s: float = 10.0,
                            max_span_c: float = 2.0) -> list[StaticSegment]:
-    """Low-variance stretches of the log.
+    """The static stretches of the log-quality stage (:func:`twin.measurement.quality.assess_log`),
+    cut where they span more than ``max_span_c``.
 
     Parameters
     ----------
     window_s : float
         Moving window [s] for the standard deviation.
     max_std_mg : float, optional
-        Static when every axis' moving σ is below this [mg]; default 4 × the median moving σ
-        (most of a calibration log is static, so the median is the noise).
+        Static when every axis' moving σ is below this [mg]; default: derived from the log's own
+        still noise (median + 6 MAD of the quiet windows, at least 1 mg).
     min_duration_s : float
-        Shorter still stretches are ignored.
+        Shorter still stretches are ignored (2 s after and before every move are cut first).
     max_span_c : float
         Segments spanning more temperature [°C] are cut, so one mean temperature describes each.
     """
@@ -83,24 +87,18 @@ def detect_static_segments(time_s, accel_g, temperature_c=None, window_s: float 
     T = np.zeros(t.size) if temperature_c is None else np.asarray(temperature_c, float)
     if a.shape != (t.size, 3) or t.size < 8:
         raise TwinError(f"accel_g must be (n, 3) with n = {t.size} ≥ 8; got {a.shape}")
-    w = max(int(round(window_s / np.median(np.diff(t)))), 3)
-    c1 = np.vstack([np.zeros(3), np.cumsum(a, axis=0)])
-    c2 = np.vstack([np.zeros(3), np.cumsum(a * a, axis=0)])
-    mean = (c1[w:] - c1[:-w]) / w
-    sd = np.sqrt(np.clip((c2[w:] - c2[:-w]) / w - mean**2, 0, None)).max(axis=1) * 1e3
-    limit = 4 * float(np.median(sd)) if max_std_mg is None else float(max_std_mg)
-    still = np.zeros(t.size, bool)
-    ok = np.flatnonzero(sd < limit)  # window [k, k + w) is still: mark all of it
-    if ok.size:
-        cover = np.zeros(t.size + 1, int)
-        np.add.at(cover, ok, 1)
-        np.add.at(cover, ok + w, -1)
-        still = np.cumsum(cover)[:-1] > 0
-    edge = np.diff(np.r_[0, still.astype(np.int8), 0])
+    quality = assess_log(ImuLog(t, T, a), window_s=window_s, sigma_mg=max_std_mg, min_static_s=min_duration_s)
+    return segments_of(quality, t, T, a, min_duration_s, max_span_c)
+
+
+def segments_of(quality: LogQuality, time_s, temperature_c, accel_g, min_duration_s: float = 10.0,
+                max_span_c: float = 2.0) -> list[StaticSegment]:
+    """The static stretches of an assessed log as segments, each cut where it spans more than
+    ``max_span_c`` and kept when it still lasts ``min_duration_s``."""
+    t, T, a = np.asarray(time_s, float), np.asarray(temperature_c, float), np.asarray(accel_g, float)
     out = []
-    for s0, s1 in zip(np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)):
-        s0, s1 = s0 + w // 2, s1 - w // 2  # keep clear of the moves
-        for p0, p1 in _cut_by_temperature(T, s0, s1, max_span_c):
+    for stretch in quality.static_stretches():
+        for p0, p1 in _cut_by_temperature(T, stretch.start, stretch.stop, max_span_c):
             if p1 - p0 >= 2 and t[p1 - 1] - t[p0] >= min_duration_s:
                 seg = a[p0:p1]
                 out.append(StaticSegment(int(p0), int(p1), tuple(seg.mean(0)), tuple(seg.std(0) * 1e3),
@@ -119,27 +117,15 @@ def _cut_by_temperature(T: np.ndarray, s0: int, s1: int, span_c: float) -> list[
 
 
 def cluster_orientations(segments: list[StaticSegment], tol_deg: float = 10.0) -> OrientationReport:
-    """Group segments whose gravity directions lie within ``tol_deg`` and name the orientations."""
-    cos_tol = np.cos(np.radians(tol_deg))
-    groups: list[list[int]] = []
-    for i, s in enumerate(segments):
-        for g in groups:
-            centre = np.mean([segments[j].direction for j in g], axis=0)
-            if s.direction @ centre / np.linalg.norm(centre) >= cos_tol:
-                g.append(i)
-                break
-        else:
-            groups.append([i])
+    """Group segments whose gravity directions lie within ``tol_deg`` and name the orientations
+    (the log-quality stage's clustering, :func:`twin.measurement.quality.cluster_directions`)."""
+    clusters = cluster_directions([s.direction for s in segments], tol_deg)
     found = []
-    for g in groups:
-        d = np.mean([segments[j].direction for j in g], axis=0)
-        d /= np.linalg.norm(d)
+    for c, (d, label) in enumerate(zip(clusters.directions, clusters.labels)):
         k = int(np.argmax(np.abs(d)))
-        aligned = abs(d[k]) >= cos_tol
-        nominal = np.eye(3)[k] * np.sign(d[k]) if aligned else d
-        label = f"{'+' if d[k] > 0 else '-'}{AXES[k]}" if aligned else "tilted"
-        found.append(Orientation(label, tuple(d), tuple(nominal), tuple(g),
-                                 tuple(segments[j].temperature_c for j in g)))
+        nominal = tuple(np.eye(3)[k] * np.sign(d[k])) if label != "tilted" else d
+        g = tuple(i for i, m in enumerate(clusters.member_of) if m == c)
+        found.append(Orientation(label, d, nominal, g, tuple(segments[j].temperature_c for j in g)))
     labels = tuple(o.label for o in found if o.label != "tilted")
     missing = tuple(lab for lab in LABELS if lab not in labels)
     if not missing and len(found) == 6:

@@ -10,22 +10,37 @@ import numpy as np
 
 from twin.calibration.lag import make_X
 from twin.calibration.models import AXES
-from twin.calibration.workflow import ImuCalibration
+from twin.calibration.workflow import AS_APPLIED, ImuCalibration
 from twin.io import atomic_write_text
 from twin.measurement import ImuLog
 from twin.reporting.plots import png_base64
 from twin.reporting.study_plots import ResidualByMethodDisplay
 
 
-def _table(c: ImuCalibration) -> str:
-    v = c.validation
-    head = "<tr><th>fold: test</th><th>method</th>" + "".join(f"<th>{a} [mg]</th>" for a in AXES) + \
+def _table(v, unit: str = "mg") -> str:
+    head = "<tr><th>fold: test</th><th>method</th>" + "".join(f"<th>{a} [{unit}]</th>" for a in AXES) + \
            "<th>extrapolated</th></tr>"
     rows = "".join(f"<tr><td>{html.escape(s.fold)}: {html.escape(s.test)}</td><td>{s.method}</td>"
                    + "".join(f"<td>{x:.3f}</td>" for x in s.rms_mg) + f"<td>{100 * s.extrapolated_fraction:.0f} %</td></tr>"
                    for s in v.scores)
     floor = "<tr><td colspan=2>noise floor</td>" + "".join(f"<td>{x:.3f}</td>" for x in v.noise_floor_mg) + "<td></td></tr>"
-    return f"<table>{head}{rows}{floor}</table>"
+    note = (f"<p>'&lt;method&gt;{AS_APPLIED}': the file written for the method, applied as the vehicle applies it "
+            "(float32; PX4 republishes its offset only after the temperature moved more than 1 °C, checked once a "
+            "second; ArduPilot re-references at the calibration temperature).</p>")
+    return f"<table>{head}{rows}{floor}</table>{note}"
+
+
+def _quality(c: ImuCalibration) -> str:
+    """What was fitted, and what was excluded and why, per log."""
+    out = []
+    for q in c.quality:
+        rows = "".join(f"<tr><td>{'used' if r.used else 'excluded'}</td><td>{html.escape(r.kind)}</td>"
+                       f"<td>{r.from_s:.1f}</td><td>{r.to_s:.1f}</td><td>{r.duration_s:.1f}</td>"
+                       f"<td>{html.escape(r.orientation)}</td><td>{html.escape(r.reason)}</td></tr>"
+                       for r in q.table_rows())
+        out.append(f"<p>{html.escape(q.summary())}</p><table><tr><th></th><th>kind</th><th>from [s]</th>"
+                   f"<th>to [s]</th><th>duration [s]</th><th>face</th><th>why</th></tr>{rows}</table>")
+    return "".join(out)
 
 
 def write_calibration_report(directory: Path, calibrations: list[ImuCalibration], logs: dict[int, list[ImuLog]]) -> Path:
@@ -33,18 +48,25 @@ def write_calibration_report(directory: Path, calibrations: list[ImuCalibration]
     parts = []
     for c in calibrations:
         data = logs[c.instance]
-        time_s = np.concatenate([log.time_s for log in data])
-        temp = np.concatenate([log.temperature_c for log in data])
-        accel = np.concatenate([log.accel_g for log in data])
-        run = np.concatenate([np.full(len(log), k) for k, log in enumerate(data)]) if len(data) > 1 else None
+        used = np.concatenate([q.usable_static for q in c.quality]) if c.quality else slice(None)  # the rows fitted
+        time_s = np.concatenate([log.time_s for log in data])[used]
+        temp = np.concatenate([log.temperature_c for log in data])[used]
+        accel = np.concatenate([log.accel_g for log in data])[used]
+        run = np.concatenate([np.full(len(log), k) for k, log in enumerate(data)])[used] if len(data) > 1 else None
         X = make_X(time_s, temp, run)
         heating = np.gradient(temp) > 0
         parts.append(f"<h2>IMU {c.instance} (device_id {c.device_id}), {c.samples} samples, "
                      f"{c.temperature_span_c[0]:.1f}…{c.temperature_span_c[1]:.1f} °C — {html.escape(c.protocol)}</h2>")
         parts.append(f"<p>Recommended: {html.escape(str(c.recommended()))}; best per axis: "
                      f"{html.escape(', '.join(f'{a} {m}' for a, m in zip(AXES, c.validation.best_method)))}</p>")
-        parts.append(_table(c))
-        parts.extend(f"<p>{html.escape(n)}</p>" for n in c.validation.notes)
+        parts.append(_quality(c))
+        parts.append(_table(c.validation))
+        parts.extend(f"<p>{html.escape(n)}</p>" for n in c.validation.notes + c.notes)
+        parts.extend(f"<p><b>flagged</b> (not recommended, not exported without --force): {html.escape(r)}</p>"
+                     for reasons in (c.flags or {}).values() for r in reasons)
+        if c.gyro is not None:
+            parts.append(f"<h3>Gyro (device_id {c.gyro.device_id})</h3>" + _table(c.gyro.validation, "mrad/s"))
+            parts.extend(f"<p><b>flagged</b>: {html.escape(r)}</p>" for reasons in c.gyro.flags.values() for r in reasons)
         if c.orientations:
             parts.append(f"<p>Orientations: {html.escape(c.orientations['kind'])}, found "
                          f"{' '.join(c.orientations['found'])}; the residual plots are skipped (gravity moves between axes).</p>")

@@ -9,30 +9,79 @@ from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from twin.calibration.branches import protocol_heating_vs_cooling
+from twin.calibration.correction import correction_g
 from twin.calibration.lag import make_X
 from twin.calibration.lagaware import LagAwareCompensator
-from twin.calibration.methods import ArduPilotMethod, Px4Method
+from twin.calibration.methods import (
+    ArduPilotGyroMethod,
+    ArduPilotMethod,
+    AsTheVehicleApplies,
+    Px4GyroMethod,
+    Px4Method,
+)
 from twin.calibration.models import AXES, PolynomialCompensator
-from twin.calibration.orientation import cluster_orientations, detect_static_segments, fit_offset_scale
+from twin.calibration.orientation import cluster_orientations, fit_offset_scale, segments_of
+from twin.calibration.plausibility import PlausibilityLimits, limits_for_part, method_flags, tcso_flags
 from twin.calibration.validate import ValidationResult, validate
 from twin.errors import TwinError
 from twin.firmware import cal_to_dict
+from twin.io import strict_json
 from twin.measurement import ImuLog, usable_for_calibration
+from twin.measurement.imu import MIN_SAMPLES, MIN_TEMPERATURE_RANGE_C
+from twin.measurement.quality import LogQuality, LogQualityError, QualitySettings, assess_log
 
 SCHEMA = "tde-twin calibration"
 SCHEMA_VERSION = 1
 # what each firmware can run: its own polynomial in the raw temperature, or (custom C) the lag-aware model
 DEPLOYABLE = {"px4": ("px4",), "ardupilot": ("ardupilot",), "c": ("twin", "polynomial", "px4", "ardupilot")}
+# the instances each firmware has: PX4 TC_A0..TC_A3 (TemperatureCompensation.h, ACCEL_COUNT_MAX 4),
+# ArduPilot INS_TCAL1..INS_TCAL3 (INS_MAX_INSTANCES 3) for IMU instances 0..2
+PX4_INSTANCES = range(4)
+ARDUPILOT_INSTANCES = range(3)
+MAX_DEVICE_ID = 2**32 - 1  # device ids are uint32 in both firmwares
+AS_APPLIED = "_as_applied"  # suffix of a firmware method scored as the vehicle applies its file
+# a still MEMS gyro: zero-rate offset within a few °/s and a bias tempco of a few hundredths of
+# °/s per °C (e.g. ±0.05 °/s/°C class parts); ten times those is not temperature drift
+GYRO_MAX_BIAS_RAD_S = np.radians(10.0)
+GYRO_MAX_SLOPE_RAD_S_PER_C = np.radians(0.5)
+MIN_STATIC_S = 60.0  # a calibration needs at least a minute of still rows (and MIN_TEMPERATURE_RANGE_C of span)
 
 
 class CalibrationInputError(TwinError):
     """A log cannot be calibrated: too short, too narrow in temperature, NaN or frozen temperature."""
+
+
+@dataclass(frozen=True, eq=False)
+class GyroCalibration:
+    """The gyro of one IMU: the firmware methods fitted on its still rows and validated held out.
+
+    Attributes
+    ----------
+    device_id : int or None
+        The gyro's device id (PX4 ``TC_Gn_ID``).
+    validation : ValidationResult
+        Held-out RMS in mrad/s (the ``_mg`` figures are thousandths of the unit: rad/s here).
+    fitted : dict
+        Method name → estimator fitted on every row.
+    flags : dict
+        Method name → why it is implausible.
+    """
+
+    device_id: int | None
+    validation: ValidationResult
+    fitted: dict
+    flags: dict
+
+    def recommended(self) -> dict[str, str | None]:
+        """Per firmware, its own method unless flagged."""
+        return {t: (t if t in self.fitted and not self.flags.get(t) else None) for t in ("px4", "ardupilot")}
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,17 +98,23 @@ class ImuCalibration:
     validation: ValidationResult
     fitted: dict  # method name → estimator fitted on every sample
     orientations: dict | None = None  # several orientations found: which, and offset + scale factor vs T
+    flags: dict | None = None  # method name → why it is implausible (absent or empty: plausible)
+    notes: tuple[str, ...] = ()
+    gyro: GyroCalibration | None = None  # when the logs have this IMU's gyro
+    quality: tuple[LogQuality, ...] = ()  # per log: which rows were still and used, what was excluded and why
 
     def heldout_rms_mg(self, method: str) -> np.ndarray:
         """Held-out RMS [mg] per axis of ``method``, pooled over folds and test branches."""
         return self.validation.rms_mg(method)
 
-    def recommended(self) -> dict[str, str]:
-        """Per target firmware, the deployable method with the lowest pooled held-out RMS (summed over axes)."""
+    def recommended(self) -> dict[str, str | None]:
+        """Per target firmware, the deployable, unflagged method with the lowest pooled held-out RMS
+        (summed over axes); None when every candidate for that target is flagged or absent."""
         out = {}
+        flags = self.flags or {}
         for target, methods in DEPLOYABLE.items():
-            have = [m for m in methods if m in self.fitted]
-            out[target] = min(have, key=lambda m: float(np.sum(self.heldout_rms_mg(m) ** 2)))
+            have = [m for m in methods if m in self.fitted and not flags.get(m)]
+            out[target] = min(have, key=lambda m: float(np.sum(self.heldout_rms_mg(m) ** 2))) if have else None
         return out
 
 
@@ -74,23 +129,79 @@ def _check_log(log: ImuLog) -> None:
                                     "live IMU temperature")
     if not np.all(np.isfinite(log.accel_g)):
         raise CalibrationInputError(f"{where}: acceleration has NaN or infinite samples")
-    ok, reason = usable_for_calibration(log)
-    if not ok:
-        raise CalibrationInputError(reason)
+    if len(log) < MIN_SAMPLES:  # too short to assess; otherwise the span is checked on the still rows
+        raise CalibrationInputError(usable_for_calibration(log)[1])
+
+
+def still_rows(qualities: tuple[LogQuality, ...], min_static_s: float = MIN_STATIC_S,
+               min_span_c: float = MIN_TEMPERATURE_RANGE_C) -> np.ndarray:
+    """The rows (all logs concatenated) a calibration may fit: the usable static stretches.
+
+    Raises
+    ------
+    CalibrationInputError
+        With the numbers, when those rows last less than ``min_static_s`` or span less than
+        ``min_span_c`` °C (e.g. "flight.bin IMU1: 1490 s static, 30.0–35.9 °C after excluding
+        195 s of motion, 2 s of gaps: < 10 °C").
+    """
+    try:
+        if len(qualities) == 1:
+            qualities[0].require_calibratable(min_static_s, min_span_c)
+        else:  # several runs: their still rows together
+            lo = min((q.static_min_c for q in qualities if q.static_min_c is not None), default=None)
+            hi = max((q.static_max_c for q in qualities if q.static_max_c is not None), default=None)
+            static_s = sum(q.static_s for q in qualities)
+            short = [f"< {min_static_s:g} s static"] if static_s < min_static_s else []
+            short += [f"< {min_span_c:g} °C"] if lo is None or hi - lo < min_span_c else []
+            if short:
+                raise LogQualityError("; ".join(q.summary() for q in qualities) + ": " + ", ".join(short))
+    except LogQualityError as exc:
+        raise CalibrationInputError(str(exc)) from None
+    return np.concatenate([q.usable_static for q in qualities])
+
+
+def check_instance(instance: int, where: str) -> None:
+    """An IMU instance some firmware has a calibration slot for (PX4 0..3, ArduPilot 0..2 → INS_TCAL1..3)."""
+    if instance not in PX4_INSTANCES:
+        raise CalibrationInputError(f"{where}: IMU instance {instance}; PX4 has TC_A0..TC_A3 and ArduPilot "
+                                    "INS_TCAL1..INS_TCAL3, so expected an instance 0..3")
+
+
+def check_device_id(device_id, where: str) -> int | None:
+    """A device id as both firmwares hold it (uint32), or None when unknown."""
+    if device_id is None:
+        return None
+    if isinstance(device_id, bool) or not isinstance(device_id, (int, np.integer)) or not 0 <= device_id <= MAX_DEVICE_ID:
+        raise CalibrationInputError(f"{where}: device id {device_id!r}; expected an integer 0..{MAX_DEVICE_ID} (uint32)")
+    return int(device_id) or None  # 0 is the firmware's "no device"
 
 
 def methods_for(instance: int, device_id: int | None, extra: dict | None = None) -> dict:
-    """The methods compared: PX4, ArduPilot, held-out polynomial, lag-aware twin, plus ``extra``."""
-    models = {"px4": Px4Method(instance=min(max(instance, 0), 3), device_id=int(device_id or 0)),
-              "ardupilot": ArduPilotMethod(instance=min(max(instance + 1, 1), 3)),
-              "polynomial": PolynomialCompensator(),
-              "twin": LagAwareCompensator()}
+    """The methods compared: PX4, ArduPilot (when the firmware has the instance), held-out
+    polynomial, lag-aware twin, plus ``extra``."""
+    models = {"px4": Px4Method(instance=instance, device_id=int(device_id or 0))}
+    if instance in ARDUPILOT_INSTANCES:
+        models["ardupilot"] = ArduPilotMethod(instance=instance + 1)
+    models.update(polynomial=PolynomialCompensator(), twin=LagAwareCompensator())
     models.update(extra or {})
     return models
 
 
-def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse: bool = True) -> ImuCalibration:
-    """Validate and fit every method on one IMU's logs (several logs = several runs).
+def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse: bool = True,
+                  device_id: int | None = None, limits: PlausibilityLimits | None = None,
+                  settings: QualitySettings | None = None) -> ImuCalibration:
+    """Validate and fit every method on one IMU's logs (several logs = several runs), on their
+    usable static rows only (the log-quality stage, :func:`twin.measurement.quality.assess_log`).
+
+    Parameters
+    ----------
+    device_id : int, optional
+        The accelerometer's device id when the logs do not record it (a tester's table); a log that
+        records another id is an error.
+    limits : PlausibilityLimits, optional
+        What a plausible fit may hold (default: :func:`limits_for_part`).
+    settings : QualitySettings, optional
+        What counts as still, a gap, a fault (default: :class:`QualitySettings`).
 
     Raises
     ------
@@ -99,37 +210,102 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     """
     for log in logs:
         _check_log(log)
+    first = logs[0]
+    where = f"{first.source} instance {first.instance}"
+    check_instance(first.instance, where)
+    logged = {log.device_id for log in logs if log.device_id}
+    if len(logged) > 1:
+        raise CalibrationInputError(f"{where}: the logs record device ids {sorted(logged)}; expected one IMU")
+    given = check_device_id(device_id, "--device-id")
+    if given is not None and logged and given not in logged:
+        raise CalibrationInputError(f"{where}: the log records device_id {logged.pop()}, but --device-id is {given}")
+    device = given if given is not None else check_device_id(next(iter(logged), None), where)
+    qualities = tuple(assess_log(log, settings) for log in logs)
+    keep = still_rows(qualities)
     time_s = np.concatenate([log.time_s for log in logs])
     temperature_c = np.concatenate([log.temperature_c for log in logs])
     accel_g = np.concatenate([log.accel_g for log in logs])
     run = np.concatenate([np.full(len(log), k) for k, log in enumerate(logs)])
-    orientations = None
+    orientations, gravity_g = None, np.zeros_like(accel_g)
     if len(logs) == 1:  # several orientations in one log: calibrate offset(T) AND scale factor(T)
-        found = orientation_calibration(time_s, temperature_c, accel_g)
+        found = orientation_calibration(time_s, temperature_c, accel_g, qualities[0])
         if found is not None:
             orientations, keep, gravity_g = found
-            time_s, temperature_c, accel_g, run = time_s[keep], temperature_c[keep], accel_g[keep] - gravity_g, run[keep]
+    rows = np.flatnonzero(keep)  # the rows fitted on: still, and (several orientations) on a known face
+    time_s, temperature_c, accel_g, run = time_s[rows], temperature_c[rows], accel_g[rows] - gravity_g[rows], run[rows]
     run_or_none = run if len(logs) > 1 else None
-    first = logs[0]
-    models = methods_for(first.instance, first.device_id, extra_methods)
+    models = methods_for(first.instance, device, extra_methods)
     protocol = protocol_heating_vs_cooling(time_s, temperature_c, run=run_or_none, reverse=reverse)
-    validation = validate(models, time_s, temperature_c, accel_g, protocol, run=run_or_none)
+    validation = validate({**models, **as_applied(models)}, time_s, temperature_c, accel_g, protocol, run=run_or_none)
     X = make_X(time_s, temperature_c, run_or_none)
     fitted = {name: est.clone().fit(X, accel_g) for name, est in models.items()}
+    gyro = None
+    if all(log.has_gyro for log in logs):
+        gyro_rad_s = np.concatenate([log.gyro_rad_s for log in logs])[rows]
+        gyro = calibrate_gyro(first, X, gyro_rad_s, protocol, run_or_none)
     rate = float(1.0 / np.median(np.diff(first.time_s)))
-    return ImuCalibration(first.instance, first.device_id, tuple(log.source for log in logs), int(time_s.size),
-                          (float(temperature_c.min()), float(temperature_c.max())), rate, protocol.name,
-                          validation, fitted, orientations)
+    span = (float(temperature_c.min()), float(temperature_c.max()))
+    limits = limits or limits_for_part()
+    flags = {name: method_flags(name, method_json(name, est), correction_g, span, limits)
+             for name, est in fitted.items()}
+    if orientations:
+        orientations["flags"] = tcso_flags(orientations, limits)
+    notes = () if "ardupilot" in models else (f"IMU instance {first.instance}: ArduPilot has INS_TCAL1..3 for "
+                                              "instances 0..2 only; no ArduPilot method",)
+    return ImuCalibration(first.instance, device, tuple(log.source for log in logs), int(time_s.size), span, rate,
+                          protocol.name, validation, fitted, orientations, flags, notes, gyro, qualities)
 
 
-def orientation_calibration(time_s, temperature_c, accel_g):
+def as_applied(models: dict) -> dict:
+    """The firmware methods again, scored as the vehicle applies the file written for them."""
+    return {f"{name}{AS_APPLIED}": AsTheVehicleApplies(est) for name, est in models.items()
+            if isinstance(est, (Px4Method, ArduPilotMethod))}
+
+
+def calibrate_gyro(log: ImuLog, X: np.ndarray, gyro_rad_s: np.ndarray, protocol, run=None) -> GyroCalibration:
+    """The gyro's temperature calibration by the PX4 and ArduPilot methods, validated like the accelerometer's.
+
+    On the same rows and folds as the accelerometer (the gyro shares the IMU's die and thermometer).
+    """
+    device = check_device_id(log.gyro_device_id, f"{log.source} instance {log.instance} gyro")
+    models = {"px4": Px4GyroMethod(instance=log.instance, device_id=int(device or 0))}
+    if log.instance in ARDUPILOT_INSTANCES:
+        models["ardupilot"] = ArduPilotGyroMethod(instance=log.instance + 1)
+    validation = validate({**models, **as_applied(models)}, X[:, 0], X[:, 1], gyro_rad_s, protocol, run=run)
+    fitted = {name: est.clone().fit(X, gyro_rad_s) for name, est in models.items()}
+    span = (float(X[:, 1].min()), float(X[:, 1].max()))
+    flags = {name: gyro_flags(name, est, span) for name, est in fitted.items()}
+    return GyroCalibration(device, validation, fitted, flags)
+
+
+def gyro_flags(name: str, est, span_c: tuple[float, float]) -> list[str]:
+    """Why a gyro fit is implausible: a bias slope or a level a still MEMS gyro does not have."""
+    temperature_c = np.linspace(*span_c, 64)
+    curve = est.cal_.offset(temperature_c)
+    flags = []
+    if not np.all(np.isfinite(curve)):
+        return [f"gyro {name}: correction not finite over {span_c[0]:.1f}..{span_c[1]:.1f} °C"]
+    slope = np.max(np.abs(np.gradient(curve, temperature_c, axis=0)), axis=0)
+    level = np.abs(np.asarray(est.level_g_) + curve.mean(axis=0))
+    for axis, s, g in zip(AXES, slope, level):
+        if s > GYRO_MAX_SLOPE_RAD_S_PER_C:
+            flags.append(f"gyro {name} {axis}: bias slope up to {np.degrees(s):.2f} °/s/°C, beyond "
+                         f"{np.degrees(GYRO_MAX_SLOPE_RAD_S_PER_C):.2f} °/s/°C")
+        if g > GYRO_MAX_BIAS_RAD_S:
+            flags.append(f"gyro {name} {axis}: bias {np.degrees(g):.1f} °/s; a still MEMS gyro's zero-rate "
+                         f"offset is within about ±{np.degrees(GYRO_MAX_BIAS_RAD_S):.0f} °/s")
+    return flags
+
+
+def orientation_calibration(time_s, temperature_c, accel_g, quality: LogQuality):
     """Orientations found in a log, and per axis offset(T) and scale factor(T) from its static segments.
 
     Returns None for a log in one orientation. Otherwise (summary for the document, the static rows,
-    the nominal gravity of each of those rows): the firmware methods and the twin are then fitted on
-    the static rows with gravity removed, so what they leave is the scale factor they do not model.
+    the nominal gravity of every row, zero off those rows): the firmware methods and the twin are then
+    fitted on the static rows with gravity removed, so what they leave is the scale factor they do
+    not model.
     """
-    segments = detect_static_segments(time_s, accel_g, temperature_c)
+    segments = segments_of(quality, time_s, temperature_c, accel_g)
     report = cluster_orientations(segments) if segments else None
     if report is None or len(report.orientations) < 2:
         return None
@@ -150,7 +326,7 @@ def orientation_calibration(time_s, temperature_c, accel_g):
         "zero_g_offset_mg": {a: float(fit.offset_mg[i, 0]) for i, a in enumerate(AXES)},
         "residual_rms_mg": dict(zip(AXES, map(float, fit.residual_rms_mg))), "notes": list(fit.notes),
     }
-    return summary, keep, gravity[keep]
+    return summary, keep, gravity
 
 
 def file_provenance(paths) -> list[dict]:
@@ -165,21 +341,32 @@ def file_provenance(paths) -> list[dict]:
     return out
 
 
-def _validation_json(v: ValidationResult) -> dict:
+def _validation_json(v: ValidationResult, unit: str = "mg") -> dict:
+    """The validation table; ``unit`` names the figures (mg for the accelerometer, mrad_s for the gyro)."""
     tests = {}
     for s in v.scores:
         key = f"{s.fold}: {s.test}"
-        tests.setdefault(key, {"samples": s.n, "extrapolated_fraction": s.extrapolated_fraction, "rms_mg": {}})
-        tests[key]["rms_mg"][s.method] = dict(zip(AXES, s.rms_mg))
-    return {"noise_floor_mg": dict(zip(AXES, v.noise_floor_mg)),
-            "heldout_rms_mg": {m: dict(zip(AXES, map(float, v.rms_mg(m)))) for m in v.methods},
-            "best_overall": dict(zip(AXES, v.best_method)), "tests": tests, "notes": list(v.notes)}
+        tests.setdefault(key, {"samples": s.n, "extrapolated_fraction": s.extrapolated_fraction, f"rms_{unit}": {}})
+        tests[key][f"rms_{unit}"][s.method] = dict(zip(AXES, s.rms_mg))
+    return {f"noise_floor_{unit}": dict(zip(AXES, v.noise_floor_mg)),
+            f"heldout_rms_{unit}": {m: dict(zip(AXES, map(float, v.rms_mg(m)))) for m in v.methods},
+            "best_overall": dict(zip(AXES, v.best_method)), "tests": tests, "notes": list(v.notes),
+            "as_applied": f"'<method>{AS_APPLIED}': the file written for the method, applied as the vehicle does "
+                          "(float32; PX4 republishes its offset only after the temperature moved > 1 °C, checked "
+                          "once a second; ArduPilot re-references at the calibration temperature)"}
+
+
+def _gyro_json(g: GyroCalibration) -> dict:
+    return {"device_id": g.device_id, "unit": "rad/s", "validation": _validation_json(g.validation, "mrad_s"),
+            "recommended": g.recommended(), "flags": {n: f for n, f in g.flags.items() if f},
+            "methods": {name: method_json(name, est) for name, est in g.fitted.items()}}
 
 
 def method_json(name: str, est) -> dict:
     """A fitted method as data: firmware calibrations in their own schema; the twin's lags and coefficients."""
     if hasattr(est, "cal_"):
-        return {"kind": "firmware", "level_g": list(map(float, est.level_g_)), "firmware": cal_to_dict(est.cal_),
+        level = "level_g" if est.sensor == "accel" else "level_rad_s"
+        return {"kind": "firmware", level: list(map(float, est.level_g_)), "firmware": cal_to_dict(est.cal_),
                 "equation": est.equation()}
     doc = {"kind": type(est).__name__, "reference_c": est.reference_c, "coef_mg": est.coef_mg_.tolist(),
            "equation": est.equation()}
@@ -191,18 +378,46 @@ def method_json(name: str, est) -> dict:
     return doc
 
 
-def calibration_json(imus: list[ImuCalibration], inputs: list[dict], version: str) -> dict:
-    """The versioned calibration document (``-o CAL.json``)."""
-    return {
+def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[list[ImuCalibration], dict[int, str]]:
+    """:func:`calibrate_imu` for each instance; an instance whose logs cannot be calibrated is
+    skipped with the reason when others can (a flight controller's second IMU on a cooler part
+    of the board often spans too little), and its error is raised when it is the only one.
+
+    Returns
+    -------
+    (calibrations, skipped) : list of ImuCalibration, dict instance → reason
+    """
+    done, skipped = [], {}
+    for instance, logs in sorted(per_instance.items()):
+        try:
+            done.append(calibrate_imu(logs, **options))
+        except CalibrationInputError as exc:
+            if len(per_instance) == 1:
+                raise
+            skipped[instance] = str(exc)
+    if not done:
+        raise CalibrationInputError("no IMU can be calibrated: " + "; ".join(skipped.values()))
+    return done, skipped
+
+
+def calibration_json(imus: list[ImuCalibration], inputs: list[dict], version: str,
+                     skipped: dict[int, str] | None = None) -> dict:
+    """The versioned calibration document (``-o CAL.json``); ``skipped``: instance → why not calibrated."""
+    return strict_json({
         "schema": SCHEMA, "schema_version": SCHEMA_VERSION, "software_version": version,
         "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "inputs": inputs,
+        "skipped": [{"instance": k, "reason": r} for k, r in sorted((skipped or {}).items())],
         "imus": [{
             "instance": c.instance, "device_id": c.device_id, "sources": list(c.sources), "samples": c.samples,
             "temperature_span_c": list(c.temperature_span_c), "sample_rate_hz": c.sample_rate_hz,
             "protocol": c.protocol, "validation": _validation_json(c.validation),
             "recommended": c.recommended(),
+            "flags": {name: list(f) for name, f in (c.flags or {}).items() if f},
+            "notes": list(c.notes),
+            "log_quality": [json.loads(q.to_json()) for q in c.quality],
             **({"orientations": c.orientations} if c.orientations else {}),
+            **({"gyro": _gyro_json(c.gyro)} if c.gyro else {}),
             "methods": {name: method_json(name, est) for name, est in c.fitted.items()},
         } for c in imus],
-    }
+    })

@@ -39,7 +39,9 @@ def emit_json(result: dict, dest: str | None) -> None:
     """Write ``result`` to ``dest`` atomically ('-' = stdout)."""
     if dest is None:
         return
-    text = json.dumps(result, indent=2, default=float) + "\n"
+    from twin.io import strict_json
+
+    text = json.dumps(strict_json(result), indent=2, default=str, allow_nan=False) + "\n"
     if dest == "-":
         sys.stdout.write(text)
         return

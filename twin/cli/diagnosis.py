@@ -18,7 +18,7 @@ def compare(
     measurements: Annotated[list[Path], typer.Argument(help="measurement file(s): canonical CSV, any log with a column map, or a twin HDF5 (read blind); several files = several runs")],
     with_effect: Annotated[Optional[list[str]], typer.Option("--with-effect", help="add this effect to the twin (repeatable)")] = None,
     report: Annotated[Optional[Path], typer.Option("--report", help="write report.html and the ledger into DIR")] = None,
-    applied_g: Annotated[Optional[str], typer.Option("--applied-g", help="acceleration along the axis when not logged [g], or 'unknown' (default: 1; with --axes: from the data)")] = None,
+    applied_g: Annotated[Optional[str], typer.Option("--applied-g", help="acceleration along the axis when not logged [g], or 'unknown' (default: 1; with --axes: from the face of each static stretch); refused when the static rows read more than 0.1 g otherwise")] = None,
     axes: Annotated[Optional[str], typer.Option("--axes", help="compare these axes of a 3-axis log, e.g. x,y,z (per axis and per IMU)")] = None,
     imu: Annotated[str, typer.Option("--imu", help="with --axes: IMU instance, or 'all'")] = "all",
     x_col: Annotated[Optional[str], typer.Option(help="x acceleration column of a delimited 3-axis log")] = None,
@@ -62,6 +62,13 @@ def compare(
                 if col is not None:
                     setattr(cmap, a, col)
         applied = _applied(applied_g, bool(axes))
+        if not axes and isinstance(applied, float) and applied_g is not None:
+            # a given --applied-g is checked against the static rows before any fit is made on it
+            from twin.diagnosis.axes import check_applied_measurement
+            from twin.measurement import load_measurements
+
+            check_applied_measurement(load_measurements(measurements, cmap, skip_bad_rows=skip_bad_rows,
+                                                        applied_g=applied), applied)
         from tqdm import tqdm
 
         from twin.diagnosis.screen import screening_progress
@@ -75,9 +82,10 @@ def compare(
     if json_out != "-" and "imus" in result:
         typer.echo(result["finding"])
         for imu_result in result["imus"]:
+            _echo_quality(imu_result["log_quality"])
             for axis, r in imu_result["axes"].items():
-                g = imu_result["orientation_applied_g"][axis]
-                typer.echo(f"  IMU {imu_result['instance']} {axis} ({g} g): residual {r['rms_residual_g'] * 1e3:.3f} mg, "
+                g = _orientation_text(imu_result["orientation_applied_g"][axis], imu_result["orientation_per_stretch"][axis])
+                typer.echo(f"  IMU {imu_result['instance']} {axis} ({g}): residual {r['rms_residual_g'] * 1e3:.3f} mg, "
                            f"floor {r['noise_floor_g'] * 1e3:.3f} mg, named: {', '.join(r['selected']) or '-'} "
                            f"({r['confidence']})")
     elif json_out != "-":
@@ -90,6 +98,29 @@ def compare(
         if report:
             typer.echo(f"report: {report / 'report.html'}")
     emit_json(result, json_out)
+
+
+def _echo_quality(qualities: list[dict], most: int = 8) -> None:
+    """What each log lost before the comparison, and why (all of it is in the JSON)."""
+    for q in qualities:
+        dropped = [r for r in q["stretches"] if not r["used"]]
+        lost = sum(r["duration_s"] for r in dropped)
+        typer.echo(f"  {q['where']}: {q['static_s']:.0f} s static, {lost:.0f} s excluded before the comparison")
+        for r in dropped[:most]:
+            typer.echo(f"    {r['kind']:<18} {r['from_s']:9.1f}–{r['to_s']:9.1f} s  {r['reason']}")
+        if len(dropped) > most:
+            typer.echo(f"    … {len(dropped) - most} more excluded stretches in the JSON (log_quality)")
+
+
+def _orientation_text(applied, stretches: list[dict]) -> str:
+    """The g applied on an axis: one value, unknown, or the seconds of static rows at each value."""
+    if applied != "per stretch":
+        return applied if applied == "unknown" else f"{applied:g} g"
+    seconds: dict[float, float] = {}
+    for s in stretches:
+        if s["applied_g"] is not None:
+            seconds[s["applied_g"]] = seconds.get(s["applied_g"], 0.0) + s["to_s"] - s["from_s"]
+    return "per static stretch: " + ", ".join(f"{g:+g} g on {sec:.0f} s" for g, sec in seconds.items())
 
 
 def _applied(text: str | None, multi_axis: bool) -> float | str | None:

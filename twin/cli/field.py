@@ -3,6 +3,7 @@ flight controller loads) and ``twin apply`` (a new log compensated)."""
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import Annotated, Optional
@@ -26,23 +27,52 @@ def _distinct(output: Path, json_out: str | None) -> None:
         raise TwinError(f"{json_out}: --json and -o name the same file; choose two paths")
 
 
+def _rms_rows(v, idx: list[int], unit: str) -> None:
+    """The held-out table, a row per method and fold; a firmware method's figure as the vehicle
+    applies the written file beside its ideal one."""
+    from twin.calibration.workflow import AS_APPLIED
+
+    fmt = lambda r: " / ".join(f"{r[i]:6.2f}" for i in idx)  # noqa: E731
+    ideal = [m for m in v.methods if not m.endswith(AS_APPLIED)]
+    for fold in dict.fromkeys(s.fold for s in v.scores):
+        typer.echo(f"  {fold}")
+        for m in ideal:
+            line = f"    {m:<11} {fmt(v.rms_mg(m, fold=fold))}"
+            if m + AS_APPLIED in v.methods:
+                line += f"   as the vehicle applies the file: {fmt(v.rms_mg(m + AS_APPLIED, fold=fold))}"
+            typer.echo(line)
+
+
+def _print_quality(c) -> None:
+    """Which rows the calibration used, and what it excluded and why."""
+    for q in c.quality:
+        typer.echo(f"  rows used: {q.summary()}")
+        excluded = [r for r in q.table_rows() if not r.used]
+        for r in excluded[:12]:
+            typer.echo(f"    excluded {r.from_s:8.1f}–{r.to_s:8.1f} s  {r.kind:<18} {r.reason}")
+        if len(excluded) > 12:
+            typer.echo(f"    … {len(excluded) - 12} more excluded stretch(es): see log_quality in the JSON")
+
+
 def _print_table(c, axes: list[str]) -> None:
     v = c.validation
     idx = [("x", "y", "z").index(a) for a in axes]
-    typer.echo(f"IMU {c.instance} (device_id {c.device_id}), {c.samples} samples, "
+    device = "device_id not logged" if c.device_id is None else f"device_id {c.device_id}"
+    typer.echo(f"IMU {c.instance} ({device}), {c.samples} samples, "
                f"{c.temperature_span_c[0]:.1f}..{c.temperature_span_c[1]:.1f} °C, protocol: {c.protocol}")
+    _print_quality(c)
     typer.echo(f"  held-out RMS [mg] {' / '.join(axes)}   (noise floor "
                f"{' / '.join(f'{v.noise_floor_mg[i]:.2f}' for i in idx)})")
-    for fold in dict.fromkeys(s.fold for s in v.scores):
-        typer.echo(f"  {fold}")
-        for m in v.methods:
-            r = v.rms_mg(m, fold=fold)
-            typer.echo(f"    {m:<11} " + " / ".join(f"{r[i]:6.2f}" for i in idx))
+    _rms_rows(v, idx, "mg")
     rec = c.recommended()
-    typer.echo(f"  recommended: PX4 {rec['px4']}, ArduPilot {rec['ardupilot']}, custom C {rec['c']}; "
-               f"best per axis: {', '.join(f'{a} {v.best_method[i]}' for a, i in zip(axes, idx))}")
-    for note in v.notes:
+    shown = {"px4": "PX4", "ardupilot": "ArduPilot", "c": "custom C"}
+    typer.echo("  recommended: " + ", ".join(f"{label} {rec.get(k) or 'none (flagged or not fitted)'}"
+                                             for k, label in shown.items())
+               + f"; best per axis: {', '.join(f'{a} {v.best_method[i]}' for a, i in zip(axes, idx))}")
+    for note in v.notes + c.notes:
         typer.echo(f"  {note}")
+    for reason in (r for reasons in (c.flags or {}).values() for r in reasons):
+        typer.echo(f"  flagged (not recommended, not exported without --force): {reason}")
     o = c.orientations
     if o:
         typer.echo(f"  orientations: {o['kind']}, found {' '.join(o['found'])}"
@@ -50,9 +80,25 @@ def _print_table(c, axes: list[str]) -> None:
                    + "; the methods above were fitted with gravity removed on the static segments")
         for a in axes:
             s, f = o["tcso_ppm_per_c"][a], o["tcoff_mg_per_c"][a]
-            typer.echo(f"    {a}: TCSo {s['value']:+.1f} ppm/°C [{s['ci95'][0]:+.1f}, {s['ci95'][1]:+.1f}], "
+            tcso = (f"TCSo {s['value']:+.1f} ppm/°C [{s['ci95'][0]:+.1f}, {s['ci95'][1]:+.1f}]"
+                    if s["value"] is not None and math.isfinite(s["value"]) else "TCSo not identifiable")
+            typer.echo(f"    {a}: {tcso}, "
                        f"TCOff {f['value']:+.4f} mg/°C [{f['ci95'][0]:+.4f}, {f['ci95'][1]:+.4f}], "
                        f"residual {o['residual_rms_mg'][a]:.3f} mg (offset + scale factor, segment means)")
+        for reason in o.get("flags", []):
+            typer.echo(f"  flagged: {reason}")
+    g = c.gyro
+    if g is not None:
+        gv = g.validation
+        typer.echo(f"  gyro ({'device_id not logged' if g.device_id is None else f'device_id {g.device_id}'}): "
+                   f"held-out RMS [mrad/s] {' / '.join(axes)}   (noise floor "
+                   f"{' / '.join(f'{gv.noise_floor_mg[i]:.3f}' for i in idx)})")
+        _rms_rows(gv, idx, "mrad/s")
+        rec = g.recommended()
+        typer.echo("  gyro recommended: " + ", ".join(f"{label} {rec.get(k) or 'none (flagged or not fitted)'}"
+                                                  for k, label in (("px4", "PX4"), ("ardupilot", "ArduPilot"))))
+        for reason in (r for reasons in g.flags.values() for r in reasons):
+            typer.echo(f"  flagged (not exported without --force): {reason}")
 
 
 @app.command()
@@ -70,13 +116,16 @@ def calibrate(
     time_unit: Annotated[Optional[str], typer.Option(help="s, ms, us, min, h")] = None,
     output_unit: Annotated[Optional[str], typer.Option(help="g, mg, m/s^2, digits")] = None,
     no_reverse: Annotated[bool, typer.Option("--no-reverse", help="validate heating→cooling only (not also cooling→heating)")] = False,
+    device_id: Annotated[Optional[int], typer.Option("--device-id", help="the accelerometer's device id when the log does not record it (a tester's table); PX4 applies TC_An only to the sensor with this id")] = None,
+    part: Annotated[str, typer.Option("--part", help="part set whose datasheet TCOff/TCSo bound a plausible fit (twin parts)")] = "IIS328DQ",
     report: Annotated[Optional[Path], typer.Option("--report", help="write report.html (tables, residual plots, equations) into DIR")] = None,
     json_out: JsonOpt = None,
 ) -> None:
     """Fit the PX4 and ArduPilot methods, a held-out polynomial and the lag-aware twin per IMU;
     validate each on data it was not fitted on (heating vs cooling, or leave one run out)."""
     from twin import __version__
-    from twin.calibration.workflow import calibrate_imu, calibration_json, file_provenance
+    from twin.calibration.plausibility import limits_for_part
+    from twin.calibration.workflow import calibrate_imus, calibration_json, file_provenance
     from twin.measurement import imu_logs_by_instance
 
     with guard(inputs=logs + ([columns] if columns else []), outputs=_outputs(output, json_out)):
@@ -91,8 +140,12 @@ def calibrate(
         cmap = column_map(columns, time=time_col, temperature=temperature_col, x=x_col, y=y_col, z=z_col,
                           time_unit=time_unit, output_unit=output_unit)
         per = imu_logs_by_instance(logs, cmap, imu)
-        results = [calibrate_imu(group, reverse=not no_reverse) for _, group in sorted(per.items())]
-        doc = calibration_json(results, file_provenance(logs), __version__)
+        if device_id is not None and len(per) > 1:
+            raise TwinError(f"--device-id names one sensor, but the logs hold IMU instances {sorted(per)}; "
+                            "choose one with --imu")
+        limits = limits_for_part(part)
+        results, skipped = calibrate_imus(per, reverse=not no_reverse, device_id=device_id, limits=limits)
+        doc = calibration_json(results, file_provenance(logs), __version__, skipped)
         emit_json(doc, str(output))
         if report is not None:
             from twin.calibration.report import write_calibration_report
@@ -101,6 +154,8 @@ def calibrate(
     if json_out != "-":
         for c in results:
             _print_table(c, chosen)
+        for instance, reason in sorted(skipped.items()):
+            typer.echo(f"IMU {instance}: not calibrated: {reason}")
         if report is not None:
             typer.echo(f"report: {report / 'report.html'}")
         typer.echo(f"wrote {output}; firmware files: twin firmware {output} --format px4|ardupilot|json|c -o FILE")
@@ -116,6 +171,8 @@ def firmware(
     method: Annotated[Optional[str], typer.Option("--method", help="method to export (default: the recommended one for the format)")] = None,
     imu: Annotated[Optional[int], typer.Option("--imu", help="IMU instance (json and c write one)")] = None,
     sample_rate_hz: Annotated[Optional[float], typer.Option("--sample-rate-hz", help="rate the firmware runs the lag filters at (c) [Hz]")] = None,
+    device_id: Annotated[Optional[int], typer.Option("--device-id", help="the sensor's device id, when the calibration has none (px4: TC_An_ID)")] = None,
+    force: Annotated[bool, typer.Option("--force", help="export a method the calibration flagged as implausible")] = False,
     json_out: JsonOpt = None,
 ) -> None:
     """Write the compensation in the exact format a flight controller or custom firmware loads."""
@@ -126,10 +183,15 @@ def firmware(
         if sample_rate_hz is not None and not 0 < sample_rate_hz < 1e6:
             raise TwinError(f"--sample-rate-hz must be in (0, 1e6) Hz, got {sample_rate_hz}")
         doc = read_calibration(calibration)
-        export_calibration(doc, fmt, output, method=method, instance=imu, sample_rate_hz=sample_rate_hz)
-    result = {"output": str(output), "format": fmt, "method": method, "imu": imu}
+        written = export_calibration(doc, fmt, output, method=method, instance=imu, sample_rate_hz=sample_rate_hz,
+                                     device_id=device_id, force=force)
+    result = {"output": str(output), "format": fmt, "method": method, "imu": imu, "lines": written.lines,
+              "notes": list(written.notes)}
     if json_out != "-":
-        typer.echo(f"wrote {output} ({fmt})")
+        checked = ", read back and checked as the ground station loads it" if fmt in ("px4", "ardupilot") else ""
+        typer.echo(f"wrote {output} ({fmt}, {written.lines} lines{checked})")
+        for note in written.notes:
+            typer.echo(f"  {note}")
     with guard():
         emit_json(result, json_out)
 
@@ -143,6 +205,7 @@ def apply(
     imu: Annotated[Optional[int], typer.Option("--imu", help="IMU instance of the log (default: the calibrated one)")] = None,
     applied_g: Annotated[Optional[str], typer.Option("--applied-g", help="true acceleration per axis 'gx,gy,gz' [g] for a residual summary")] = None,
     columns: Annotated[Optional[Path], typer.Option("--columns", help="column-map YAML for delimited logs")] = None,
+    force: Annotated[bool, typer.Option("--force", help="apply a method the calibration flagged as implausible")] = False,
     json_out: JsonOpt = None,
 ) -> None:
     """Compensate a new log with a calibration: time, temperature, raw and compensated x, y, z."""
@@ -161,7 +224,7 @@ def apply(
         if imu_log is None:
             raise TwinError(f"{log}: no IMU instance {target}; the log holds {[x.instance for x in logs]}")
         entry = imu_entry(doc, imu_log.instance, imu_log.device_id, str(calibration))
-        name, data = method_entry(entry, method, "c")
+        name, data = method_entry(entry, method, "c", force=force)
         corrected = imu_log.accel_g - correction_g(data, imu_log.time_s, imu_log.temperature_c)
         span = entry["temperature_span_c"]
         outside = float(np.mean((imu_log.temperature_c < span[0]) | (imu_log.temperature_c > span[1])))

@@ -8,6 +8,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from twin.diagnosis.selection import cross_family_partners
+from twin.diagnosis.structure import both_directions
 
 if TYPE_CHECKING:
     from twin.diagnosis.diagnose import Diagnosis
@@ -32,6 +33,15 @@ SIGNATURE = {
     "bias_tc": "The residual is a smooth function of temperature, the same on heating and cooling",
     "aging": "The residual drifts steadily in time, whatever the temperature",
     "warmup": "The residual has a transient after each power-on",
+}
+
+# the signatures that set heating against cooling, said for data holding one thermal direction only
+# (a heating-only warm-up cannot show a sign change or a loop between the two)
+ONE_DIRECTION_SIGNATURE = {
+    "thermal_lag": "The residual follows −dT/dt and settles in dwells (the data hold one thermal direction only)",
+    "hysteresis": "The residual depends on the temperature's path, not on its value alone (the data hold one "
+                  "thermal direction only, so no loop in residual vs temperature can be seen)",
+    "bias_tc": "The residual is a smooth function of temperature",
 }
 
 # reasons and remedies of the audit
@@ -98,7 +108,8 @@ def finding_text(d: Diagnosis) -> str:
              if a.get("aliased_with") == "per-run offsets"]
     if d.selected:
         top = d.selected[0]
-        sig = SIGNATURE.get(top.family, f"The residual has the signature of {top.family}")
+        signatures = SIGNATURE if both_directions(d.problem) else {**SIGNATURE, **ONE_DIRECTION_SIGNATURE}
+        sig = signatures.get(top.family, f"The residual has the signature of {top.family}")
         values = top.refined_values or top.grid_values
         param = ", ".join(f"{k} ≈ {v:.3g}" for k, v in values.items())
         phys = {"thermal_lag": f"the die lags the thermometer by ≈{values.get('tau_s', float('nan')):.0f} s"}.get(
@@ -190,11 +201,13 @@ def _attribution_text(family: str, effect: str | None) -> str:
     return "Attribution: to a signature, not a mechanism. " + lookalikes_sentence(family, effect)
 
 
-def structure_text(structure: list) -> str:
-    """Where the residual departs from the noise model and by how much ('' when nowhere)."""
+def structure_text(structure: list, both_directions: bool = True) -> str:
+    """Where the residual departs from the noise model and by how much ('' when nowhere); with one
+    thermal direction in the data the rate grouping is named without setting heating against cooling."""
     if not structure:
         return ""
-    items = "; ".join(f"{GROUPING.get(s.grouping, s.grouping)} ({_fmt_mg(s.rms_g)} RMS, largest at {s.where}: "
+    names = GROUPING if both_directions else {**GROUPING, "rate": "between ramps and dwells"}
+    items = "; ".join(f"{names.get(s.grouping, s.grouping)} ({_fmt_mg(s.rms_g)} RMS, largest at {s.where}: "
                       f"{s.departure_g * 1e3:+.3g} mg; ΔBIC {s.delta_bic:.0f})" for s in structure)
     return f"The residual has structure white noise would not make: {items}."
 
@@ -204,7 +217,7 @@ def _structure_and_discovery(d: Diagnosis) -> list[str]:
     out = []
     disc = d.discovery
     if d.structure and (disc is None or not disc.proposed):
-        out.append(structure_text(d.structure))
+        out.append(structure_text(d.structure, both_directions(d.problem)))
     if disc is None:
         if d.structure:
             out.append("The library leaves this structure: `twin compare ... --discover` searches a dictionary of "

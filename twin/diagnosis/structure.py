@@ -4,7 +4,8 @@ Asked only when the residual stands above the white-noise floor (``HONESTY_RATIO
 :mod:`~twin.diagnosis.diagnose`), so the null hypothesis is the one the issue names: white noise
 at the floor measured from the data's differences. The residual of the model (plus any named
 effects) on 10-s means is grouped one way at a time — 5 °C temperature bins, heating / cooling /
-dwell, the temperature bins split by direction (the hysteresis view), one-hour chunks of each run —
+dwell, the temperature bins split by direction (the hysteresis view, only when the data both heat
+and cool: :func:`both_directions`), one-hour chunks of each run —
 and the between-group sum of squares is compared with χ²(G − 1) at that floor (one-way ANOVA with
 known variance), Bonferroni over the groupings. An AR noise model is deliberately not used here:
 fitted to a smooth residual it learns the structure and whitens it away. A grouping is *structure*
@@ -23,6 +24,7 @@ from scipy import stats
 
 from twin.diagnosis.problem import Problem
 from twin.diagnosis.screen import CandidateResult
+from twin.measurement.quality import thermal_directions
 
 BIN_C = 5.0
 CHUNK_S = 3600.0
@@ -58,13 +60,23 @@ def _groups(problem: Problem, cal: Calibration) -> dict[str, tuple[np.ndarray, l
     t0 = np.array([first[r] for r in runs])
     chunk = runs * 10_000 + ((t - t0) // CHUNK_S).astype(int)
     loop = tb * 3 + rate_g
-    return {
+    groups = {
         "temperature": (tb, [f"{b * BIN_C:g}–{(b + 1) * BIN_C:g} °C" for b in np.unique(tb)]),
         "rate": (rate_g, [("heating", "cooling", "dwells")[g] for g in np.unique(rate_g)]),
         "temperature_direction": (loop, [f"{(v // 3) * BIN_C:g}–{(v // 3 + 1) * BIN_C:g} °C, "
                                          f"{('heating', 'cooling', 'dwell')[v % 3]}" for v in np.unique(loop)]),
         "time": (chunk, [f"run {c // 10_000}, hour {c % 10_000 + 1}" for c in np.unique(chunk)]),
     }
+    if not both_directions(problem):  # heating against cooling at one temperature needs both in the data
+        del groups["temperature_direction"]
+    return groups
+
+
+def both_directions(problem: Problem) -> bool:
+    """Whether the compared rows both heat and cool, as the log-quality stage counts them (≥ 1 °C each
+    way at > 0.05 °C/min): without both, no grouping or sentence sets heating against cooling."""
+    d = thermal_directions(problem.m.time_s, problem.m.temperature_c)
+    return d.has_heating and d.has_cooling
 
 
 def residual_structure(problem: Problem, cal: Calibration, selected: list[CandidateResult],

@@ -1,9 +1,13 @@
-"""Firmware-side accelerometer temperature calibration: PX4 and ArduPilot methods, a polynomial
-with held-out order selection, and exporters the firmware or ground station reads (PX4 ``.params``
-for QGroundControl, ArduPilot ``.parm``, versioned JSON, a C header), each with a parser.
+"""Firmware-side temperature calibration: PX4 and ArduPilot methods for the accelerometer and the
+gyro, a polynomial with held-out order selection, and exporters the firmware or ground station
+reads (PX4 ``.params`` for QGroundControl, ArduPilot ``.parm``, versioned JSON, a C header), each
+with a parser. Every writer checks each value as the firmware will hold it (float32, TMIN < TMAX,
+degree, instance, PX4 device id) before any text exists; the ``.params``/``.parm`` writers read
+their text back as the loader does before it is written. ``px4_vehicle_offsets`` and
+``ardupilot_vehicle_offsets`` give what the vehicle applies along a log.
 
-Pure numpy/scipy; depends only on ``twin.errors`` and ``twin.io``. Units: m/s² and °C throughout
-(1 g = :data:`G0_M_S2` = 9.80665 m/s²).
+Pure numpy/scipy; depends only on ``twin.errors`` and ``twin.io``. Units: m/s², rad/s and °C
+throughout (1 g = :data:`G0_M_S2` = 9.80665 m/s²).
 """
 
 from twin.firmware.ardupilot import (
@@ -11,14 +15,21 @@ from twin.firmware.ardupilot import (
                                      TEMP_RANGE_MIN_C,
                                      TEMP_REF_C,
                                      ArduPilotAccelCal,
+                                     ArduPilotGyroCal,
+                                     ardupilot_vehicle_correct,
+                                     ardupilot_vehicle_offsets,
                                      firmware_correct_ardupilot,
                                      fit_ardupilot,
+                                     fit_ardupilot_gyro,
 )
 from twin.firmware.ardupilot_parm import (
                                      ardupilot_cal_from_parm,
                                      ardupilot_parm_text,
+                                     check_ardupilot_cal,
+                                     checked_ardupilot_parm_text,
                                      parse_ardupilot_parm,
                                      read_ardupilot_parm,
+                                     verify_ardupilot_parm,
                                      write_ardupilot_parm,
 )
 from twin.firmware.c_header import (
@@ -29,11 +40,17 @@ from twin.firmware.c_header import (
 )
 from twin.firmware.common import (
                                      AXES,
+                                     FLOAT32_MAX,
                                      G0_M_S2,
                                      CalibrationFileError,
                                      CalibrationRangeError,
                                      ClampedPolynomial,
                                      FirmwareCalError,
+                                     FirmwareValueError,
+                                     FirmwareVerifyError,
+                                     applied_vs_ideal,
+                                     check_device_id_px4,
+                                     check_float32,
 )
 from twin.firmware.json_cal import (
                                      SCHEMA_VERSION,
@@ -51,28 +68,41 @@ from twin.firmware.polynomial import (
 )
 from twin.firmware.px4 import (
                                      Px4AccelCal,
+                                     Px4GyroCal,
                                      firmware_offset_px4,
                                      fit_px4,
+                                     fit_px4_gyro,
                                      median_filter,
+                                     px4_republish_lag_c,
+                                     px4_vehicle_offsets,
                                      resample_by_temperature,
 )
 from twin.firmware.px4_params import (
                                      Px4ParamFile,
+                                     check_px4_cal,
+                                     checked_px4_params_text,
                                      parse_px4_params,
                                      px4_cal_from_params,
+                                     px4_cal_from_polynomial,
                                      px4_params_text,
                                      read_px4_params,
+                                     verify_px4_params,
                                      write_px4_params,
 )
 
 __all__ = [
-    "AXES", "CALTEMP_UNSET_C", "G0_M_S2", "SCHEMA_VERSION", "TEMP_RANGE_MIN_C", "TEMP_REF_C",
-    "ArduPilotAccelCal", "CalibrationFileError", "CalibrationRangeError", "ClampedPolynomial", "FirmwareCalError",
-    "HeldoutPolynomialFit", "JsonCalibration", "Px4AccelCal", "Px4ParamFile",
-    "ardupilot_cal_from_parm", "ardupilot_parm_text", "c_header", "cal_from_dict", "cal_to_dict",
-    "die_temperature_lag", "firmware_correct_ardupilot", "firmware_offset_px4", "fit_ardupilot",
-    "fit_polynomial_heldout", "fit_px4", "interleaved_folds", "lag_alpha", "lag_aware_c_header", "median_filter",
-    "parse_ardupilot_parm", "parse_px4_params", "px4_cal_from_params", "px4_params_text",
-    "read_ardupilot_parm", "read_json_cal", "read_px4_params", "resample_by_temperature",
-    "write_ardupilot_parm", "write_c_header", "write_json_cal", "write_lag_aware_c_header", "write_px4_params",
+    "AXES", "CALTEMP_UNSET_C", "FLOAT32_MAX", "G0_M_S2", "SCHEMA_VERSION", "TEMP_RANGE_MIN_C", "TEMP_REF_C",
+    "ArduPilotAccelCal", "ArduPilotGyroCal", "CalibrationFileError", "CalibrationRangeError", "ClampedPolynomial",
+    "FirmwareCalError", "FirmwareValueError", "FirmwareVerifyError", "HeldoutPolynomialFit", "JsonCalibration",
+    "Px4AccelCal", "Px4GyroCal", "Px4ParamFile",
+    "applied_vs_ideal", "ardupilot_cal_from_parm", "ardupilot_parm_text", "ardupilot_vehicle_correct",
+    "ardupilot_vehicle_offsets", "c_header", "cal_from_dict", "cal_to_dict", "check_ardupilot_cal",
+    "check_device_id_px4", "check_float32", "check_px4_cal", "checked_ardupilot_parm_text",
+    "checked_px4_params_text", "die_temperature_lag", "firmware_correct_ardupilot", "firmware_offset_px4",
+    "fit_ardupilot", "fit_ardupilot_gyro", "fit_polynomial_heldout", "fit_px4", "fit_px4_gyro",
+    "interleaved_folds", "lag_alpha", "lag_aware_c_header", "median_filter", "parse_ardupilot_parm",
+    "parse_px4_params", "px4_cal_from_params", "px4_cal_from_polynomial", "px4_params_text",
+    "px4_republish_lag_c", "px4_vehicle_offsets", "read_ardupilot_parm", "read_json_cal", "read_px4_params",
+    "resample_by_temperature", "verify_ardupilot_parm", "verify_px4_params", "write_ardupilot_parm",
+    "write_c_header", "write_json_cal", "write_lag_aware_c_header", "write_px4_params",
 ]

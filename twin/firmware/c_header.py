@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import lfilter
 
-from twin.firmware.common import AXES, FirmwareCalError, c_float, generator_name
+from twin.firmware.common import AXES, FirmwareCalError, c_float, check_polynomial, generator_name
 from twin.io import atomic_write_text
 
 
@@ -66,12 +66,18 @@ def c_header(cal, sample_rate_hz: float, tau_s: float | None = None, *, prefix: 
     str
         Defines ``{prefix}_offset_m_s2(T, out[N])``, ``{prefix}_correct_m_s2(T, accel[N])``
         (accel −= offset) and, with ``tau_s``, ``{prefix}_lag_update(&state, T_meas)``.
+
+    Raises
+    ------
+    FirmwareValueError
+        A coefficient or bound a C ``float`` cannot hold, or TMIN ≥ TMAX.
     """
     if not re.fullmatch(r"[a-z_][a-z0-9_]*", prefix):
         raise FirmwareCalError(f"prefix {prefix!r} is not a lower-case C identifier")
     if not (sample_rate_hz > 0 and math.isfinite(sample_rate_hz)):
         raise FirmwareCalError(f"sample_rate_hz must be positive, got {sample_rate_hz}")
     poly = cal.polynomial
+    check_polynomial(poly, prefix)  # every value a finite float32, TMIN < TMAX, before any text
     coef = poly.coefficient_array
     n_axes, n_coeff = coef.shape
     up = prefix.upper()

@@ -3,7 +3,9 @@
 The firmware side is the same clamped polynomial PX4 applies (PX4/PX4-Autopilot
 src/modules/temperature_compensation/TemperatureCompensation.cpp, ``calc_thermal_offsets_3D``,
 there fixed at order 3); here the order is not fixed but picked by cross-validation, and the
-result is exported through the JSON and C-header writers (PX4/ArduPilot parameters are cubic).
+result is exported through the JSON and C-header writers. PX4 parameters hold X0..X3 only:
+``twin.firmware.px4_params.px4_cal_from_polynomial`` turns a fit of order ≤ 3 into ``TC_A``/``TC_G``
+parameters and refuses a higher order rather than dropping its terms.
 
 Folds: the record is cut into ``folds × blocks_per_fold`` contiguous time blocks and block b is
 held out in fold ``b % folds``. Contiguous blocks keep neighbouring, correlated samples together

@@ -59,6 +59,7 @@ def compare_parameters(result: dict) -> dict[str, dict]:
 
 
 def _compare(unit: dict, settings: dict, unit_dir: Path, rel: str) -> dict:
+    from twin.diagnosis.axes import check_applied_measurement
     from twin.diagnosis.compare import compare_measurement
     from twin.effects import get_effect
     from twin.measurement import load_measurements
@@ -67,6 +68,8 @@ def _compare(unit: dict, settings: dict, unit_dir: Path, rel: str) -> dict:
     loaded = _scenario(settings["scenario"])
     m = load_measurements([Path(f) for f in unit["files"]], _column_map(settings["columns"]),
                           skip_bad_rows=opt["skip_bad_rows"], applied_g=opt["applied_g"])
+    if isinstance(opt["applied_g"], (int, float)):  # as twin compare: a given g the still rows contradict is refused
+        check_applied_measurement(m, float(opt["applied_g"]))
     d, result = compare_measurement(loaded, m, list(opt["with_effects"]), float(opt["average_s"]))
     params = compare_parameters(result)
     if opt["refit"] and result["selected"]:  # the named effects calibrated whole: intervals for τ, widths

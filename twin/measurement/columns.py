@@ -14,9 +14,11 @@ TIME_FACTORS_S = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "mi
 OUTPUT_UNITS = ("g", "mg", "m/s^2", "m/s2", "digits")
 TEMPERATURE_UNITS = ("C", "K", "F")
 AXES = ("x", "y", "z")
+GYRO_KEYS = ("gx", "gy", "gz")
+GYRO_FACTORS_RAD_S = {"rad/s": 1.0, "deg/s": np.pi / 180.0}  # radians per second per unit
 # delimiter spellings beyond one character: a tab typed on a command line, and runs of whitespace
 DELIMITER_WORDS = {"tab": "\t", "\\t": "\t", "whitespace": r"\s+", r"\s+": r"\s+"}
-COLUMN_KEYS = ("time", "temperature", "output", "applied", "run", "power_on", "x", "y", "z")
+COLUMN_KEYS = ("time", "temperature", "output", "applied", "run", "power_on", "x", "y", "z", *GYRO_KEYS)
 
 
 @dataclass
@@ -30,6 +32,8 @@ class ColumnMap:
 
     Three output columns make the log an :class:`~twin.measurement.imu.ImuLog`: ``x``, ``y``,
     ``z`` (or ``output_cols``, a list of three); ``axis`` is the one a single-axis comparison uses.
+    Such a log may name its gyro columns too: ``gx``, ``gy``, ``gz`` (all three), in ``gyro_unit``
+    rad/s (default) or deg/s.
 
     :meth:`validate` checks every field's type and range; the readers call it before reading.
     """
@@ -55,6 +59,10 @@ class ColumnMap:
     z: str | int | None = None
     output_cols: list[str | int] | None = None
     axis: str = "z"
+    gx: str | int | None = None
+    gy: str | int | None = None
+    gz: str | int | None = None
+    gyro_unit: str = "rad/s"
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> ColumnMap:
@@ -106,7 +114,7 @@ class ColumnMap:
                                                  and all(_is_column(c) for c in self.output_cols)):
             raise bad("output_cols", "a list of three column names or indices (x, y, z)")
         for key, allowed in (("time_unit", tuple(TIME_FACTORS_S)), ("output_unit", OUTPUT_UNITS),
-                             ("temperature_unit", TEMPERATURE_UNITS)):
+                             ("temperature_unit", TEMPERATURE_UNITS), ("gyro_unit", tuple(GYRO_FACTORS_RAD_S))):
             value = getattr(self, key)
             if not isinstance(value, str) or (value.upper() if key == "temperature_unit" else value) not in allowed:
                 raise bad(key, f"one of {', '.join(allowed)}")
@@ -161,6 +169,23 @@ class ColumnMap:
                                    "a 3-axis log needs x, y and z")
         return self.x, self.y, self.z
 
+    def gyro_columns(self) -> tuple[str | int, str | int, str | int] | None:
+        """The gyro x, y, z columns (``gx``, ``gy``, ``gz``), or ``None`` when the map names none.
+
+        Raises
+        ------
+        MeasurementError
+            Only some of ``gx``, ``gy``, ``gz`` given.
+        """
+        given = {k: getattr(self, k) for k in GYRO_KEYS if getattr(self, k) is not None}
+        if not given:
+            return None
+        if len(given) < 3:
+            missing = ", ".join(k for k in GYRO_KEYS if k not in given)
+            raise MeasurementError(f"column map sets {', '.join(given)} but not {missing}; "
+                                   "a gyro needs gx, gy and gz")
+        return self.gx, self.gy, self.gz
+
 
 RUN_MAX = int(np.iinfo(np.int16).max)  # runs are stored as int16
 
@@ -194,6 +219,14 @@ def convert_output(values: np.ndarray, cmap: ColumnMap) -> np.ndarray:
     if cmap.output_scale != 1.0:  # x·1 == x exactly: skip a copy of a long log
         out = out * cmap.output_scale
     return -out if cmap.invert_output else out
+
+
+def convert_gyro_rad_s(values: np.ndarray, cmap: ColumnMap) -> np.ndarray:
+    """Gyro column(s) in rad/s from ``cmap.gyro_unit`` (rad/s or deg/s)."""
+    factor = GYRO_FACTORS_RAD_S.get(cmap.gyro_unit)
+    if factor is None:
+        raise MeasurementError(f"gyro_unit must be one of {', '.join(GYRO_FACTORS_RAD_S)}, got {cmap.gyro_unit!r}")
+    return values if factor == 1.0 else values * factor
 
 
 def convert_temperature_c(values: np.ndarray, cmap: ColumnMap) -> np.ndarray:

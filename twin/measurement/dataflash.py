@@ -1,20 +1,27 @@
 """ArduPilot DataFlash binary logs (``.bin``) via pymavlink: ``IMU`` messages, one :class:`ImuLog` per instance.
 
-``IMU`` fields used: ``TimeUS`` [µs], ``AccX``, ``AccY``, ``AccZ`` [m/s², FRD body frame], ``T``
-[°C] and the instance: ``I`` since ArduPilot 4.1 (``Instance`` accepted too); logs from before
-4.1 name the instances ``IMU``, ``IMU2``, ``IMU3`` instead. ``TCLR`` records (the firmware's own
-temperature-calibration learning) are kept per instance in :attr:`ImuLog.records`; the device id
-comes from the ``INS_ACC_ID``/``INS_ACC2_ID``/``INS_ACC3_ID`` parameters when logged.
+``IMU`` fields used: time ``TimeUS`` [µs], ``AccX``, ``AccY``, ``AccZ`` [m/s², FRD body frame],
+temperature ``T`` [°C], ``GyrX``, ``GyrY``, ``GyrZ`` [rad/s] when logged, and the instance: ``I``
+since ArduPilot 4.1 (``Instance`` accepted too); logs from before 4.1 name the instances ``IMU``,
+``IMU2``, ``IMU3`` instead. Older releases spelled fields differently (Copter 3.2: ``TimeMS`` [ms]
+and no temperature; 3.3: ``Temp``): :data:`IMU_FIELD_NAMES` maps every spelling read.
+
+``TCLR`` records (the firmware's own temperature-calibration learning; ``SType`` 0 accelerometer,
+1 gyro) are kept per instance in :attr:`ImuLog.records`. Device ids come from the
+``INS_ACC_ID``/``INS_ACC2_ID``/``INS_ACC3_ID`` and ``INS_GYR_ID``/``INS_GYR2_ID``/``INS_GYR3_ID``
+parameters when logged; a value that cannot be a device id is left out with a note.
 """
 
 from __future__ import annotations
 
 import contextlib
 import io
+import math
 import os
 import sys
 import tempfile
 from collections import defaultdict
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -26,10 +33,33 @@ from twin.measurement.registry import ReadOptions, register_reader, require_sign
 DATAFLASH_SIGNATURE = b"\xa3\x95"
 IMU_MESSAGES = {"IMU": 0, "IMU2": 1, "IMU3": 2}  # pre-4.1 logs: one message name per instance
 INSTANCE_FIELDS = ("I", "Instance")
-IMU_FIELDS = ("TimeUS", "AccX", "AccY", "AccZ", "T")
+# each quantity read from IMU, in row order → its field names, newest spelling first (ArduPilot
+# libraries/AP_Logger/LogStructure.h: TimeMS up to Copter 3.2, Temp in 3.3, T since)
+IMU_FIELD_NAMES = {
+    "time": ("TimeUS", "TimeMS"),
+    "accel_x": ("AccX",),
+    "accel_y": ("AccY",),
+    "accel_z": ("AccZ",),
+    "temperature": ("T", "Temp"),
+}
+TIME_FACTORS_S = {"TimeUS": 1e-6, "TimeMS": 1e-3}
+GYRO_FIELDS = ("GyrX", "GyrY", "GyrZ")
 TCLR_FIELDS = {"TimeUS": "time_s", "SType": "sensor_type", "Temp": "temperature_c", "X": "x", "Y": "y", "Z": "z",
                "NSamp": "samples"}
+TCLR_SENSOR_TYPES = {0: "accelerometer", 1: "gyro"}  # ArduPilot AP_InertialSensor_tempcal: SType
 DEVICE_ID_PARAMS = ("INS_ACC_ID", "INS_ACC2_ID", "INS_ACC3_ID")
+GYRO_DEVICE_ID_PARAMS = ("INS_GYR_ID", "INS_GYR2_ID", "INS_GYR3_ID")
+DEVICE_ID_MAX = 2**32 - 1  # ArduPilot device ids are uint32
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Which fields of one IMU message format are read (in row order), seconds per time unit, and
+    whether it has the gyro."""
+
+    fields: tuple[str, ...]
+    time_factor_s: float
+    has_gyro: bool
 
 
 @contextlib.contextmanager
@@ -48,16 +78,16 @@ def _quiet():
 
 
 def _messages(path: Path):
-    """``(IMU rows by instance, TCLR rows by instance, parameters)`` from pymavlink's parse."""
+    """``(IMU rows by instance, gyro-less instances, TCLR rows by instance, parameters)`` from pymavlink's parse."""
     from pymavlink.DFReader import DFReader_binary
 
-    imu, tclr = defaultdict(list), defaultdict(list)
+    imu, tclr, no_gyro, layouts = defaultdict(list), defaultdict(list), set(), {}
     try:
         with _quiet():
             log = DFReader_binary(str(path), zero_time_base=True)
             try:
                 while (m := log.recv_match(type=[*IMU_MESSAGES, "TCLR"])) is not None:
-                    _collect(m.to_dict(), imu, tclr, path)
+                    _collect(m.to_dict(), imu, tclr, no_gyro, layouts, path)
                 params = dict(log.params)
             finally:
                 log.close()
@@ -65,42 +95,153 @@ def _messages(path: Path):
         raise
     except Exception as exc:  # pymavlink raises bare Exception for unsupported format characters
         raise MeasurementError(f"{path}: not a readable DataFlash log ({type(exc).__name__}: {exc})") from None
-    return imu, tclr, params
+    return imu, no_gyro, tclr, params
 
 
-def _collect(msg: dict, imu: dict, tclr: dict, path: Path) -> None:
-    name = msg["mavpackettype"]
+def _expected_fields() -> str:
+    """``"TimeUS (or TimeMS), AccX, ..."``: the IMU fields read, for messages."""
+    return ", ".join(" (or ".join(names) + ")" * (len(names) - 1) for names in IMU_FIELD_NAMES.values())
+
+
+def _layout(msg: dict, path: Path) -> _Layout:
+    """The layout of an IMU message format, from one of its messages (the first spelling found wins)."""
+    fields, missing = [], []
+    for names in IMU_FIELD_NAMES.values():
+        found = next((f for f in names if f in msg), None)
+        if found is None:
+            missing.append(" or ".join(names))
+        fields.append(found)
+    if missing:
+        raise MeasurementError(f"{path}: {msg['mavpackettype']} messages have no field(s) {', '.join(missing)}; "
+                               f"expected {_expected_fields()}")
+    has_gyro = all(f in msg for f in GYRO_FIELDS)
+    fields += GYRO_FIELDS if has_gyro else ()
+    # a format is fixed per message name: its first message shows every field's type; text is
+    # refused even when it looks numeric (ArduPilot logs no quantity as text: a foreign FMT)
+    text = next((f for f in fields if not _is_number(msg[f])), None)
+    if text is not None:
+        raise MeasurementError(f"{path}: {msg['mavpackettype']} field {text} holds text ({str(msg[text])[:40]!r}); "
+                               "expected a number (the log's FMT gives it a text type)")
+    return _Layout(tuple(fields), TIME_FACTORS_S[fields[0]], has_gyro)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+
+
+def _instance(msg: dict, name: str, path: Path) -> int:
+    """The IMU instance of a message: its instance field, else the message name's (pre-4.1)."""
     inst_field = next((f for f in INSTANCE_FIELDS if f in msg), None)
-    instance = int(msg[inst_field]) if inst_field else IMU_MESSAGES.get(name, 0)
+    if inst_field is None:
+        return IMU_MESSAGES.get(name, 0)
+    value = msg[inst_field]
+    if not _is_number(value):
+        raise MeasurementError(f"{path}: {name} field {inst_field} holds text ({value!r}); "
+                               "expected an integer IMU instance number")
+    return int(value)
+
+
+def _collect(msg: dict, imu: dict, tclr: dict, no_gyro: set, layouts: dict, path: Path) -> None:
+    name = msg["mavpackettype"]
+    instance = _instance(msg, name, path)
     if name == "TCLR":
         tclr[instance].append([msg.get(f, np.nan) for f in TCLR_FIELDS])
         return
-    missing = [f for f in IMU_FIELDS if f not in msg]
-    if missing:
-        raise MeasurementError(f"{path}: {name} messages have no field(s) {', '.join(missing)}; "
-                               f"expected {', '.join(IMU_FIELDS)}")
-    imu[instance].append([msg[f] for f in IMU_FIELDS])
+    layout = layouts.get(name)
+    if layout is None:
+        layout = layouts[name] = _layout(msg, path)
+    if not layout.has_gyro:
+        no_gyro.add(instance)
+    # rows have one width whatever the format: an instance fed by a gyro-less format gets no gyro
+    imu[instance].append([msg[f] for f in layout.fields] + ([] if layout.has_gyro else [math.nan] * 3)
+                         + [layout.time_factor_s])
 
 
-def _tclr_records(rows: list) -> dict[str, dict[str, np.ndarray]]:
+def _float_table(rows: list, fields: tuple[str, ...], what: str, path: Path) -> np.ndarray:
+    """``rows`` as a float64 table; a text-typed field is named in one line."""
+    try:
+        return np.asarray(rows, dtype=np.float64)
+    except (TypeError, ValueError):
+        pass
+    for row in rows:
+        for field_name, value in zip(fields, row):
+            if not _is_number(value):
+                raise MeasurementError(f"{path}: {what} field {field_name} holds text ({str(value)[:40]!r}); "
+                                       "expected a number (the log's FMT gives it a text type)")
+    raise MeasurementError(f"{path}: {what} messages do not convert to numbers; expected numeric fields")
+
+
+def _tclr_records(rows: list, path: Path) -> dict[str, dict[str, np.ndarray]]:
     if not rows:
         return {}
-    table = np.asarray(rows, dtype=float)
+    table = _float_table(rows, tuple(TCLR_FIELDS), "TCLR", path)
     record = {key: table[:, k] for k, key in enumerate(TCLR_FIELDS.values())}
     record["time_s"] = record["time_s"] * 1e-6
     return {"TCLR": record}
 
 
-def _imu_log(instance: int, rows: list, tclr_rows: list, params: dict, path: Path) -> ImuLog:
+def _tclr_note(records: dict, where: str) -> tuple[str, ...]:
+    """What the TCLR records hold, by sensor type (a consumer separates them by ``sensor_type``)."""
+    if not records:
+        return ()
+    kinds = records["TCLR"]["sensor_type"]
+    counts = ", ".join(f"{int((kinds == code).sum())} {label}" for code, label in TCLR_SENSOR_TYPES.items())
+    return (f"{where}: {kinds.size} TCLR record(s) (ArduPilot temperature-calibration learning; "
+            f"SType: {counts})",)
+
+
+def device_id_from_param(params: dict, name: str | None, where: str) -> tuple[int | None, tuple[str, ...]]:
+    """The device id a parameter holds, and a note when its value cannot be one.
+
+    Parameters
+    ----------
+    params : dict
+        The log's parameters by name (values as pymavlink gives them, float).
+    name : str or None
+        The parameter (e.g. ``INS_ACC2_ID``); ``None`` for an instance beyond the three named.
+    where : str
+        The file and instance, for the note.
+
+    Returns
+    -------
+    (int or None, tuple of str)
+        ``None`` when the parameter is absent, 0 (no sensor), or not a whole number from 1 to
+        2³²−1 (NaN, infinite, negative, a fraction, too large: then with a note).
+    """
+    if name is None or name not in params:
+        return None, ()
+    value = params[name]
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if math.isfinite(number) and number == int(number) and 0 <= number <= DEVICE_ID_MAX:
+        return (int(number) or None), ()
+    shown = f"{number:g}" if _is_number(value) else repr(value)[:40]
+    return None, (f"{where}: parameter {name} = {shown} is not a device id (expected a whole number "
+                  f"from 0 to {DEVICE_ID_MAX}); device id unknown",)
+
+
+def _id_param(names: tuple[str, ...], instance: int) -> str | None:
+    return names[instance] if instance < len(names) else None
+
+
+def _imu_log(instance: int, rows: list, has_gyro: bool, tclr_rows: list, params: dict, path: Path) -> ImuLog:
     where = f"{path} IMU instance {instance}"
-    table = np.asarray(rows, dtype=np.float64)
-    t, temp, acc, notes = drop_unusable_rows(table[:, 0] * 1e-6, table[:, 4], table[:, 1:4] / STANDARD_GRAVITY, where)
-    records = _tclr_records(tclr_rows)
-    if records:
-        notes += (f"{where}: {len(tclr_rows)} TCLR record(s) (ArduPilot temperature-calibration learning)",)
-    key = DEVICE_ID_PARAMS[instance] if instance < len(DEVICE_ID_PARAMS) else None
-    device_id = int(round(params[key])) if key in params and params[key] else None
-    return ImuLog(t, temp, acc, instance, device_id, str(path), notes, records)
+    fields = ("time", "AccX", "AccY", "AccZ", "temperature", *GYRO_FIELDS, "time scale")
+    table = _float_table(rows, fields, "IMU", path)
+    time_s = table[:, 0] * table[:, 8]
+    accel_g = table[:, 1:4] / STANDARD_GRAVITY
+    # gyro rides along with the accelerometer columns so the rows dropped are the same
+    values = np.column_stack([accel_g, table[:, 5:8]]) if has_gyro else accel_g
+    t, temp, kept, notes = drop_unusable_rows(time_s, table[:, 4], values, where)
+    records = _tclr_records(tclr_rows, path)
+    notes += _tclr_note(records, where)
+    device_id, id_notes = device_id_from_param(params, _id_param(DEVICE_ID_PARAMS, instance), where)
+    gyro_id, gyro_id_notes = device_id_from_param(params, _id_param(GYRO_DEVICE_ID_PARAMS, instance), where)
+    gyro = np.ascontiguousarray(kept[:, 3:6]) if has_gyro else None
+    return ImuLog(t, temp, np.ascontiguousarray(kept[:, :3]), instance, device_id, str(path),
+                  notes + id_notes + gyro_id_notes, records, gyro, gyro_id)
 
 
 def read_dataflash(path: str | Path) -> list[ImuLog]:
@@ -109,16 +250,17 @@ def read_dataflash(path: str | Path) -> list[ImuLog]:
     Raises
     ------
     MeasurementError
-        Missing, empty, not a DataFlash log, or without IMU messages.
+        Missing, empty, not a DataFlash log, without IMU messages, or IMU/TCLR fields that are
+        missing or of a text type.
     """
     path = Path(path)
     require_signature(path, DATAFLASH_SIGNATURE, "DataFlash .bin log")
-    imu, tclr, params = _messages(path)
+    imu, no_gyro, tclr, params = _messages(path)
     if not imu:
         raise MeasurementError(f"{path}: no IMU messages (accelerometer data) in this DataFlash log; "
-                               "expected IMU with TimeUS, I, AccX, AccY, AccZ, T "
+                               f"expected IMU with I and {_expected_fields()} "
                                "(ArduPilot logs them when LOG_BITMASK includes IMU)")
-    return [_imu_log(i, imu[i], tclr.get(i, []), params, path) for i in sorted(imu)]
+    return [_imu_log(i, imu[i], i not in no_gyro, tclr.get(i, []), params, path) for i in sorted(imu)]
 
 
 def sniff_dataflash(path: Path) -> bool:

@@ -2,7 +2,8 @@
 
 Canonical CSV: ``time_s,temperature_c,output_g[,applied_g][,run][,power_on]`` with a header line.
 A :class:`~twin.measurement.columns.ColumnMap` reads any other delimited log; three output
-columns (``x``, ``y``, ``z``) give an :class:`~twin.measurement.imu.ImuLog`. Bad input raises
+columns (``x``, ``y``, ``z``) give an :class:`~twin.measurement.imu.ImuLog`, with its gyro when
+the map names ``gx``, ``gy``, ``gz``. Bad input raises
 :class:`MeasurementError` naming the file, line and column.
 
 pandas' C parser reads the text. Clean files take a fast path: every field typed float64 up front
@@ -27,6 +28,7 @@ from twin.measurement import chunked
 from twin.measurement.columns import (
     RUN_MAX,
     ColumnMap,
+    convert_gyro_rad_s,
     convert_output,
     convert_temperature_c,
     not_whole_in_range,
@@ -285,9 +287,11 @@ def single_axis_roles(cmap: ColumnMap) -> tuple:
 
 
 def three_axis_roles(cmap: ColumnMap, axis_cols) -> tuple:
-    """``(role, key, required)`` for a 3-axis log."""
+    """``(role, key, required)`` for a 3-axis log (with ``x gyro`` ... when the map names a gyro)."""
+    gyro_cols = cmap.gyro_columns() or ()
     return (("temperature", cmap.temperature, True), *((f"{a} output", k, True) for a, k in zip("xyz", axis_cols)),
-            ("time", cmap.time, cmap.sample_rate_hz is None))
+            ("time", cmap.time, cmap.sample_rate_hz is None),
+            *((f"{a} gyro", k, True) for a, k in zip("xyz", gyro_cols)))
 
 
 def measurement_from_columns(path: Path, cmap: ColumnMap, values: dict, keep: np.ndarray | None, n_bad: int,
@@ -337,11 +341,13 @@ def imu_from_columns(path: Path, cmap: ColumnMap, values: dict, keep: np.ndarray
     t = _time_s(values, keep, n, cmap)
     check_increasing(t, path, first_line, keep)
     accel = np.column_stack([convert_output(_kept(values[f"{a} output"], keep), cmap) for a in "xyz"])
+    gyro = (np.column_stack([convert_gyro_rad_s(_kept(values[f"{a} gyro"], keep), cmap) for a in "xyz"])
+            if "x gyro" in values else None)
     temp = convert_temperature_c(_kept(values["temperature"], keep), cmap)
     del values
     check_values(temp, accel, str(path))
     notes = (f"{path}: {n_bad} bad row(s) skipped",) if n_bad else ()
-    return ImuLog(t, temp, accel, 0, None, str(path), notes)
+    return ImuLog(t, temp, accel, 0, None, str(path), notes, gyro_rad_s=gyro)
 
 
 def check_increasing(t: np.ndarray, path: Path, first_line: int, keep: np.ndarray | None) -> None:

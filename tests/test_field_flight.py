@@ -1,0 +1,267 @@
+"""A messy flight log through the whole field workflow, as a user runs it: ``twin calibrate``,
+``twin firmware``, ``twin compare`` and ``twin apply`` on a simulated ArduPilot DataFlash log in the
+older field names (``TimeMS``, ``Temp``, messages ``IMU``/``IMU2``) whose truth is known
+(:mod:`flightsim`: a warm-up on the ground with two handling tilts, a flight with vibration and
+manoeuvres, a 2-s gap, a crash flip and the vehicle upside down to the end; a second IMU that
+warms too little to calibrate).
+
+And the firmware's side of a table calibration: PX4 matches a calibration to a sensor by device id
+(``TemperatureCompensation::set_sensor_id``), so a table that records no id must be given one.
+"""
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+from conftest import run_cli
+from flightsim import CRASH_S, FLIGHT_S, GAP_AT_S, GAP_S, GROUND_S, HANDLING_AT_S, HANDLING_S, gyro_bias_rad_s, \
+    simulate_flight
+from logfixtures import G_MS2, ImuTruth, chamber_run, cubic_offset_ms2, write_dataflash
+from twin.firmware import cal_from_dict, parse_ardupilot_parm, parse_px4_params
+
+RATE_HZ = 10.0  # a 10-Hz log keeps the test quick; the log-quality thresholds scale with the step
+
+
+def strict(text: str):
+    """JSON that Python's reader accepts without NaN or Infinity."""
+    def refuse(constant):
+        raise AssertionError(f"non-strict JSON constant {constant}")
+    return json.loads(text, parse_constant=refuse)
+
+
+@pytest.fixture(scope="module")
+def flight(tmp_path_factory):
+    """The log written as an older ArduPilot's DataFlash, calibrated once by the CLI."""
+    folder = tmp_path_factory.mktemp("flight")
+    truth = simulate_flight(seed=3, rate_hz=RATE_HZ)
+    imus = [ImuTruth(k, truth.device_ids[k], np.round(truth.time_s * 1e6).astype(np.uint64),
+                     truth.temperature_c[k].astype(np.float32), truth.accel_ms2[k].astype(np.float32),
+                     truth.gyro_rad_s[k].astype(np.float32), truth.gyro_device_ids[k]) for k in range(2)]
+    log = write_dataflash(folder / "flight.bin", imus, old_names=True)
+    cal = folder / "cal.json"
+    done = run_cli("calibrate", str(log), "-o", str(cal), "--json", str(folder / "calibrate.json"))
+    assert done.returncode == 0, done.stderr
+    return truth, log, cal, done.stdout, strict(cal.read_text())
+
+
+def phase_between(truth, t0: float, t1: float) -> set[str]:
+    k = (truth.time_s >= t0) & (truth.time_s < t1)
+    return set(truth.phase[k])
+
+
+def test_calibration_fits_only_the_still_ground_and_tail_rows(flight):
+    truth, _, _, stdout, doc = flight
+    [imu] = doc["imus"]
+    [quality] = imu["log_quality"]
+    used = [s for s in quality["stretches"] if s["used"]]
+    for s in used:  # no row of a handling tilt, the flight or the crash is fitted
+        assert phase_between(truth, s["from_s"], s["to_s"]) <= {"ground", "inverted"}, s
+    # what is used: all of the still time but the margins around the moves (window 1 s + 2 s each side)
+    still_s = GROUND_S - len(HANDLING_AT_S) * HANDLING_S + (truth.time_s[-1] - (GROUND_S + FLIGHT_S + CRASH_S))
+    assert still_s - 60 < quality["static_s"] <= still_s
+    kinds = [s["kind"] for s in quality["stretches"] if not s["used"]]
+    assert kinds.count("handling") == len(HANDLING_AT_S)
+    assert kinds.count("gap") == 1
+    [gap] = [s for s in quality["stretches"] if s["kind"] == "gap"]
+    assert gap["from_s"] == pytest.approx(GAP_AT_S, abs=0.2) and gap["duration_s"] == pytest.approx(GAP_S, abs=0.2)
+    excluded_motion = sum(s["duration_s"] for s in quality["stretches"] if s["kind"] in ("moving", "handling"))
+    assert FLIGHT_S + CRASH_S - GAP_S < excluded_motion < FLIGHT_S + CRASH_S + 60
+    # the console says it too, a line per excluded stretch
+    assert re.search(r"rows used: flight\.bin IMU0: \d+ s static, 25\.\d–4\d\.\d °C after excluding \d+ s of "
+                     r"motion, 2 s of gaps", stdout)
+    assert stdout.count("excluded ") >= 5
+
+
+def test_the_imu_that_warmed_too_little_is_refused_with_the_numbers(flight):
+    _, log, _, stdout, doc = flight
+    [skipped] = doc["skipped"]
+    assert skipped["instance"] == 1
+    pattern = r"flight\.bin IMU1: \d+ s static, 30\.\d–3\d\.\d °C after excluding \d+ s of motion, 2 s of gaps: < 10 °C"
+    assert re.fullmatch(pattern, skipped["reason"])
+    assert "IMU 1: not calibrated: " in stdout
+    asked = run_cli("calibrate", str(log), "--imu", "1", "-o", str(log.parent / "imu1.json"))
+    assert asked.returncode == 2 and asked.stdout == ""
+    assert re.fullmatch(r"twin: error: " + pattern + "\n", asked.stderr)
+    assert not (log.parent / "imu1.json").exists()
+
+
+def test_the_fits_recover_the_known_accelerometer_and_gyro_drift(flight):
+    truth, _, _, _, doc = flight
+    [imu] = doc["imus"]
+    assert imu["device_id"] == truth.device_ids[0] and imu["gyro"]["device_id"] == truth.gyro_device_ids[0]
+    lo, hi = imu["temperature_span_c"]
+    grid = np.linspace(lo, hi, 50)
+    for name in ("px4", "ardupilot"):
+        cal = cal_from_dict(imu["methods"][name]["firmware"])
+        # offsets are known up to the constant the ordinary calibration owns: compare about the mean
+        err = cal.offset_m_s2(grid) - cubic_offset_ms2(grid)
+        err_mg = (err - err.mean(axis=0)) / G_MS2 * 1e3
+        print(f"{name}: accel offset curve vs truth, max {np.abs(err_mg).max(axis=0)} mg")
+        # 2 mg sample noise over ~3000 s of 10 Hz rows: the curve is fixed to a few tenths of a mg
+        assert np.all(np.abs(err_mg) < 0.3)
+        gyro = cal_from_dict(imu["gyro"]["methods"][name]["firmware"])
+        gerr = gyro.offset(grid) - gyro_bias_rad_s(grid)
+        if name == "ardupilot":  # anchored at INS_GYRn_CALTEMP: compare about the mean
+            gerr = gerr - gerr.mean(axis=0)
+        print(f"{name}: gyro offset vs truth, max {np.abs(gerr).max(axis=0)} rad/s")
+        assert np.all(np.abs(gerr) < 2e-4)  # 3 mrad/s noise per sample; the bias moves 4 mrad/s over the span
+        # held out, every method reaches the noise floor: nothing but temperature drift was fitted
+        floor = np.array(list(imu["validation"]["noise_floor_mg"].values()))
+        rms = np.array(list(imu["validation"]["heldout_rms_mg"][name].values()))
+        assert np.all(rms < 1.05 * floor)
+    assert not imu["flags"]
+
+
+def test_firmware_files_carry_the_fitted_accel_and_gyro_and_nothing_for_the_refused_imu(flight):
+    truth, _, cal, _, doc = flight
+    [imu] = doc["imus"]
+    params, parm = cal.parent / "tc.params", cal.parent / "tc.parm"
+    for fmt, out in (("px4", params), ("ardupilot", parm)):
+        done = run_cli("firmware", str(cal), "--format", fmt, "-o", str(out))
+        assert done.returncode == 0, done.stderr
+        assert "IMU 0: accel and gyro" in done.stdout
+    values = parse_px4_params(params.read_text()).values
+    assert values["TC_A0_ID"] == truth.device_ids[0] and values["TC_G0_ID"] == truth.gyro_device_ids[0]
+    assert values["TC_A_ENABLE"] == 1 and values["TC_G_ENABLE"] == 1
+    assert not any(k.startswith(("TC_A1", "TC_G1")) for k in values)
+    px4_gyro = imu["gyro"]["methods"]["px4"]["firmware"]["coefficients"]
+    for i, axis in enumerate("xyz"):
+        for k in range(4):
+            assert values[f"TC_G0_X{k}_{i}"] == pytest.approx(px4_gyro[axis]["values"][k], rel=1e-6)
+            assert values[f"TC_G0_X{k}_{i}"] != 0
+    ap = parse_ardupilot_parm(parm.read_text())
+    ap_gyro = imu["gyro"]["methods"]["ardupilot"]["firmware"]["coefficients"]
+    for i, axis in enumerate("XYZ"):
+        for k in (1, 2, 3):
+            assert ap[f"INS_TCAL1_GYR{k}_{axis}"] == pytest.approx(ap_gyro[axis.lower()]["values"][k - 1] * 1e6,
+                                                                    rel=1e-6, abs=1e-9)
+    assert ap["INS_TCAL1_ENABLE"] == 1 and not any(k.startswith("INS_TCAL2") for k in ap)
+
+
+def test_compare_names_no_temperature_effect_for_the_motion(flight):
+    _, log, cal, _, _ = flight
+    out = cal.parent / "compare.json"
+    done = run_cli("compare", "scenarios/paper_iis328dq.yaml", str(log), "--axes", "x,y,z", "--imu", "0",
+                   "--json", str(out))
+    assert done.returncode == 0, done.stderr
+    result = strict(out.read_text())
+    [imu] = result["imus"] if "imus" in result else [result]
+    for axis, r in imu["axes"].items():
+        assert r["selected"] == [], (axis, r["selected"])
+    # the orientation came from each static stretch: −1 g on the ground, +1 g upside down
+    z = {round(s["applied_g"]) for s in imu["orientation_per_stretch"]["z"] if s["applied_g"] is not None}
+    assert z == {-1, 1}
+    assert "between heating and cooling" not in done.stdout
+
+
+def test_every_json_written_is_strict(flight):
+    _, _, cal, _, _ = flight
+    for path in cal.parent.glob("*.json"):
+        strict(path.read_text())
+
+
+# ---- a tester's table: no device id in the data ------------------------------------------------
+
+def set_sensor_id(values: dict, device_id: int, base: str = "TC_A") -> int | None:
+    """TemperatureCompensation::set_sensor_id (PX4 src/modules/temperature_compensation/
+    TemperatureCompensation.cpp): the slot whose TC_An_ID equals the sensor's device_id, else −1
+    (``for (int i = 0; i < ACCEL_COUNT_MAX; ++i) if (device_id == (uint32_t)params.id) return i``)."""
+    for n in range(4):
+        if f"{base}{n}_ID" in values and int(np.uint32(np.int64(values[f"{base}{n}_ID"]))) == device_id:
+            return n
+    return None
+
+
+def calc_thermal_offsets_3d(values: dict, n: int, temperature_c: float) -> np.ndarray:
+    """TemperatureCompensation::calc_thermal_offsets_3D transcribed with float32 scalars: ΔT from
+    TREF clamped to [TMIN, TMAX], offset = X0 + X1·ΔT + X2·ΔT² + X3·ΔT³ per axis."""
+    f = np.float32
+    g = lambda k: f(values[f"TC_A{n}_{k}"])  # noqa: E731
+    t = f(temperature_c)
+    d = (g("TMAX") if t > g("TMAX") else g("TMIN") if t < g("TMIN") else t) - g("TREF")
+    d2 = d * d
+    d3 = d2 * d
+    return np.array([g(f"X0_{i}") + g(f"X1_{i}") * d + g(f"X2_{i}") * d2 + g(f"X3_{i}") * d3 for i in range(3)])
+
+
+def test_a_table_calibration_needs_a_device_id_for_px4_and_then_applies_as_twin_apply(tmp_path):
+    imu = chamber_run(n=600, rate_hz=1.0, seed=5)[0]
+    table = tmp_path / "tester.csv"
+    t = imu.time_us.astype(float) * 1e-6
+    rows = np.column_stack([t, imu.temperature_c, imu.accel_ms2 / G_MS2])
+    np.savetxt(table, rows, delimiter=",", header="time_s,temp_c,ax_g,ay_g,az_g", comments="", fmt="%.9g")
+    cal = tmp_path / "cal.json"
+    cols = ["--time-col", "time_s", "--temperature-col", "temp_c", "--x-col", "ax_g", "--y-col", "ay_g",
+            "--z-col", "az_g", "--output-unit", "g"]
+    assert run_cli("calibrate", str(table), *cols, "-o", str(cal)).returncode == 0
+    params = tmp_path / "tc.params"
+    refused = run_cli("firmware", str(cal), "--format", "px4", "-o", str(params))
+    assert refused.returncode == 2 and not params.exists()
+    assert re.fullmatch(r"twin: error: IMU instance 0: no accel device id; PX4 applies TC_A0 only to the sensor "
+                        r"whose device_id equals its ID, so this file would load and change nothing; pass "
+                        r"--device-id .*\n", refused.stderr)
+    device_id = 2424842
+    assert run_cli("firmware", str(cal), "--format", "px4", "--device-id", str(device_id),
+                   "-o", str(params)).returncode == 0
+    values = parse_px4_params(params.read_text()).values
+    assert set_sensor_id(values, device_id) == 0
+    assert set_sensor_id(values, device_id + 1) is None  # another sensor: PX4 applies nothing to it
+    applied = tmp_path / "applied.csv"
+    assert run_cli("apply", str(cal), str(table), *[], "--method", "px4", "-o", str(applied),
+                   "--columns", str(_columns(tmp_path))).returncode == 0
+    out = np.genfromtxt(applied, delimiter=",", names=True)
+    raw = imu.accel_ms2.astype(np.float32)
+    vehicle = np.array([raw[j] - calc_thermal_offsets_3d(values, 0, temp) for j, temp in enumerate(imu.temperature_c)])
+    ours = np.column_stack([out[f"{a}_compensated_g"] for a in "xyz"]) * G_MS2
+    # float32 arithmetic on ~10 m/s² values: a few ulps of 9.8 m/s² (1 ulp ≈ 0.1 µg)
+    err_ug = np.abs(vehicle.astype(float) - ours).max(axis=0) / G_MS2 * 1e6
+    print(f"PX4 as transcribed vs twin apply: max {err_ug} µg")
+    assert np.all(err_ug < 2.0)
+    # and the file does change the output: by the fitted drift, not by nothing
+    assert np.abs(vehicle - raw).max() > 1e-3
+
+
+def _columns(folder):
+    path = folder / "columns.yaml"
+    path.write_text("time: time_s\ntemperature: temp_c\nx: ax_g\ny: ay_g\nz: az_g\noutput_unit: g\n")
+    return path
+
+
+def test_an_implausible_fit_is_flagged_not_recommended_and_not_exported_without_force(tmp_path):
+    # a drift of 20 mg/°C: 25 times the IIS328DQ's typical TCOff of 0.8 mg/°C, beyond the 10× limit
+    imu = chamber_run(n=600, rate_hz=1.0, seed=6)[0]
+    accel = imu.accel_ms2 / G_MS2 + 0.020 * (imu.temperature_c[:, None] - 25.0)
+    table = tmp_path / "steep.csv"
+    np.savetxt(table, np.column_stack([imu.time_us * 1e-6, imu.temperature_c, accel]), delimiter=",",
+               header="time_s,temp_c,ax_g,ay_g,az_g", comments="", fmt="%.9g")
+    cal = tmp_path / "cal.json"
+    done = run_cli("calibrate", str(table), "--columns", str(_columns(tmp_path)), "-o", str(cal))
+    assert done.returncode == 0, done.stderr
+    doc = strict(cal.read_text())
+    [imu_doc] = doc["imus"]
+    assert imu_doc["recommended"]["px4"] is None and imu_doc["recommended"]["ardupilot"] is None
+    assert re.search(r"px4 x: offset slope up to 20\.\d mg/°C, beyond 8 mg/°C", " ".join(imu_doc["flags"]["px4"]))
+    assert "flagged (not recommended, not exported without --force)" in done.stdout
+    for fmt in ("px4", "ardupilot"):
+        out = tmp_path / f"steep.{fmt}"
+        refused = run_cli("firmware", str(cal), "--format", fmt, "--device-id", "7", "-o", str(out))
+        assert refused.returncode == 2 and not out.exists()
+        assert refused.stderr.count("\n") == 1 and "flagged" in refused.stderr and "--force" in refused.stderr
+    forced = run_cli("firmware", str(cal), "--format", "px4", "--device-id", "7", "--force",
+                     "-o", str(tmp_path / "forced.params"))
+    assert forced.returncode == 0, forced.stderr
+
+
+@pytest.mark.parametrize("instance", [-1, 4, 300])
+def test_calibrate_refuses_an_imu_instance_no_firmware_has(instance):
+    from twin.calibration.workflow import CalibrationInputError, calibrate_imu
+    from twin.measurement import ImuLog
+
+    imu = chamber_run(n=400, rate_hz=1.0, seed=7)[0]
+    log = ImuLog(imu.time_us * 1e-6, imu.temperature_c.astype(float), imu.accel_ms2 / G_MS2, instance=instance,
+                 source="table.csv")
+    with pytest.raises(CalibrationInputError, match=rf"^table\.csv instance {instance}: IMU instance {instance}; "
+                                                    r"PX4 has TC_A0\.\.TC_A3 and ArduPilot INS_TCAL1\.\.INS_TCAL3"):
+        calibrate_imu([log])
