@@ -379,3 +379,18 @@ def test_ctrl_c_inside_a_plugin_is_one_line(tmp_path):
     with contextlib.chdir(tmp_path):
         code, _, err = run_main(["compare", "ok_tiny.yaml", "log.csv", "--plugin", "p.py"])
     assert code == 130 and err.strip() == "twin: interrupted", err
+
+
+def test_calibrate_prints_one_document_on_standard_output(tmp_path):
+    (tmp_path / "log.csv").write_text(LOG_ROWS)
+    refused(tmp_path, ["calibrate", "log.csv", "-o", "-", "--json", "-"], "both name standard output")
+
+
+@pytest.mark.parametrize("scale, unit", [(1000.0, "mg"), (9.80665, "m/s^2")])
+def test_a_three_axis_log_in_another_unit_declared_as_g_is_refused(tmp_path, scale, unit):
+    """A level board reads ~0 on two axes: the median over all values passed a log in mg as g."""
+    rows = "".join(f"{i},{-10 + i * 0.2},{0.01 * scale},{-0.02 * scale},{-1.0 * scale}\n" for i in range(300))
+    (tmp_path / "log.csv").write_text("time_s,temperature_c,x,y,z\n" + rows)
+    refused(tmp_path, ["calibrate", "log.csv", "--time-col", "time_s", "--temperature-col", "temperature_c",
+                       "--x-col", "x", "--y-col", "y", "--z-col", "z", "--output-unit", "g", "-o", "c.json"],
+            f"acceleration median |a| {scale:.3g} g is implausible")

@@ -22,7 +22,10 @@ def _outputs(output: Path, json_out: str | None) -> list[Path]:
 
 
 def _distinct(output: Path, json_out: str | None) -> None:
-    """``-o`` and ``--json`` must name two files (the second written would replace the first)."""
+    """``-o`` and ``--json`` must name two files (the second written would replace the first), and
+    standard output can carry one document only."""
+    if str(output) == "-" and json_out == "-":
+        raise TwinError("-o - and --json - both name standard output; it carries one document: give -o a file")
     if json_out not in (None, "-") and Path(json_out).resolve() == Path(output).resolve():
         raise TwinError(f"{json_out}: --json and -o name the same file; choose two paths")
 
@@ -151,7 +154,7 @@ def calibrate(
             from twin.calibration.report import write_calibration_report
 
             write_calibration_report(report, results, per)
-    if json_out != "-":
+    if json_out != "-" and str(output) != "-":  # standard output carries the document alone
         for c in results:
             _print_table(c, chosen)
         for instance, reason in sorted(skipped.items()):

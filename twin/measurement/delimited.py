@@ -40,6 +40,7 @@ from twin.measurement.registry import ReadOptions, register_reader
 from twin.text import did_you_mean
 
 SUFFIXES = (".csv", ".tsv", ".txt", ".log", ".dat")
+MAX_MEDIAN_NORM_G = 4.0  # a median |a| above this is a unit mistake, not an accelerometer (as the 1-axis check)
 
 
 def _sniff_separator(lines: list[str]) -> str:
@@ -366,9 +367,14 @@ def check_values(temperature_c: np.ndarray, accel_g: np.ndarray, where: str) -> 
     if med > 150:
         raise MeasurementError(f"{where}: temperature median {med:.1f} looks like kelvin; "
                                "set temperature_unit: K (or F for Fahrenheit)")
-    if np.median(np.abs(accel_g)) > 50:
-        raise MeasurementError(f"{where}: acceleration median {np.median(np.abs(accel_g)):.3g} g is implausible; "
-                               "set output_unit (m/s^2, mg or digits)")
+    # per row, not per value: on a level board two axes read ~0, so the median over all values
+    # would pass a log in mg (or m/s²) declared as g; a still or flying IMU reads |a| of about 1 g
+    with np.errstate(over="ignore"):  # |a| of 1e300 is inf, refused below like any unit mistake
+        norm = float(np.median(np.linalg.norm(accel_g, axis=1) if accel_g.ndim == 2 else np.abs(accel_g)))
+    if norm > MAX_MEDIAN_NORM_G:
+        raise MeasurementError(f"{where}: acceleration median |a| {norm:.3g} g is implausible for an IMU at rest or in "
+                               f"flight (expected about 1 g, at most {MAX_MEDIAN_NORM_G:g}); set output_unit "
+                               "(m/s^2, mg or digits)")
 
 
 def write_canonical_csv(path: str | Path, time_s, temperature_c, output_g, applied_g, run, power_on) -> Path:
