@@ -1,4 +1,4 @@
-"""Monte-Carlo acceptance benchmark of the diagnosis (diagnosis-methods §3.3), written as JSON.
+"""Monte-Carlo acceptance benchmark of the diagnosis (docs/diagnosis.md §3.3), written as JSON.
 
 For every case, ≥ 200 seeded datasets from :mod:`twin.diagnosis.hidden` (the twin + one hidden module,
 realistic noise, two runs at ±1 g, power cycles, 1 Hz) are diagnosed blind; rates come with
@@ -12,7 +12,7 @@ cubic scale-factor tempco, logarithmic aging) first ≥ 95 %; A8 two effects bot
 A9 after adding the named effect, RMS ≤ 1.10 × noise-only (clear); A10 recovered parameters within
 5 % / 15 % median relative error (clear / marginal); A11 out-of-library confidently misattributed
 ≤ 25 %; A12 sub-threshold effects attributed to another family no more often than A1. Beside
-them, not a criterion of diagnosis-methods: how often the effect is named by its own name where a
+them, not a criterion of docs/diagnosis.md §3.3: how often the effect is named by its own name where a
 family holds two (a die lag, a package gradient whose sign a lag cannot give).
 
 Usage: python benchmarks/bench_diagnosis.py [--seeds 200] [--workers 2] [--json out/bench_diagnosis.json]

@@ -4,7 +4,7 @@ Target (issue 17): a 15-temperature sweep of the default stack + comb in < 2 s o
 one factorisation and load scaling (u(T) = Σ_k θ_k(T) U_k), side by side in one run with what one
 would otherwise write: assemble, factorise and solve every temperature from scratch. Both give the
 same offsets (checked). Also: the package_fem effect on 500k samples (interpolation, no solve), and
-TCOff at three mesh sizes with Richardson extrapolation (memo §5 T8: < 1 % change required).
+TCOff at three mesh sizes with Richardson extrapolation (docs/fem.md §D3 T8: < 1 % change required).
 
 Usage: python benchmarks/bench_fem.py [--json out/bench_fem.json]
 """

@@ -41,7 +41,7 @@ def lowpass(x: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
 
 def maxwell_relaxation(delta_c: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
     """Viscoelastic (Maxwell) stress state ΔT − LP_τ(ΔT) [°C]: follows fast changes, relaxes to
-    zero over τ at constant temperature (diagnosis-methods §2c; Prony sums add several terms)."""
+    zero over τ at constant temperature (docs/diagnosis.md §2c; Prony sums add several terms)."""
     d = np.asarray(delta_c, float)
     return d - lowpass(d, dt_s, tau_s)
 
@@ -49,7 +49,7 @@ def maxwell_relaxation(delta_c: np.ndarray, dt_s: float, tau_s: float) -> np.nda
 def smoothed_rate_c_per_s(temperature_c: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
     """Rate of change seen through a first-order node: d/dt LP_τ(T) = (T − LP_τ(T)) / τ [°C/s].
 
-    Causal, and needs no numerical differentiation of a noisy signal (diagnosis-methods §2i).
+    Causal, and needs no numerical differentiation of a noisy signal (docs/diagnosis.md §2i).
     """
     t = np.asarray(temperature_c, float)
     return (t - lowpass(t, dt_s, tau_s)) / tau_s
@@ -139,7 +139,7 @@ def _compile_play():
 
 
 def warmup_shape(time_since_power_on_s: np.ndarray, tau_s: float) -> np.ndarray:
-    """exp(−t_on/τ): the transient after each power-on (diagnosis-methods §2g)."""
+    """exp(−t_on/τ): the transient after each power-on (docs/diagnosis.md §2g)."""
     return np.exp(-np.asarray(time_since_power_on_s, float) / tau_s)
 
 

@@ -43,7 +43,7 @@ def test_sealed_csv_right_family_first_and_error_falls_to_noise(tmp_path, family
     if any(top["effect"] in a["effects"] and len(a["families"]) > 1 for a in result["aliases"]):
         assert "the evidence separates them here" in result["finding"]
     after = _compare_csv(tmp_path, case, "--with-effect", top["effect"])
-    # diagnosis-methods §3.3 criterion A9: after adding the identified module, residual RMS
+    # docs/diagnosis.md §3.3 criterion A9: after adding the identified module, residual RMS
     # ≤ 1.10 × the noise-only RMS (clear effects)
     assert after["rms_residual_g"] <= 1.10 * case.noise_only_rms_g
     assert not after["missing_effect_detected"] or after["selected"] != [top["effect"]]

@@ -44,7 +44,7 @@ def board():
 # -- analytic references ---------------------------------------------------------------------------
 
 def test_steel_aluminium_strip_matches_timoshenko():
-    """Memo T1 (ν = 0, so plane strain = plane stress = beam): κ = 1.5343 1/m at ΔT = +100 K.
+    """docs/fem.md §D3 T1 (ν = 0, so plane strain = plane stress = beam): κ = 1.5343 1/m at ΔT = +100 K.
     0.5 % is the acceptance bound; the FE curvature over the central half of a 20:1 strip is exact
     up to the free-edge boundary layers, so the error observed is ~1e-5."""
     ref = timoshenko_curvature_per_m(0.5e-3, 0.5e-3, 200e9, 70e9, 12e-6, 23e-6, 100.0)
@@ -56,14 +56,14 @@ def test_steel_aluminium_strip_matches_timoshenko():
 
 @pytest.mark.parametrize("kinematics,substitute", [("plane_strain", True), ("plane_stress", False)])
 def test_silicon_fr4_strip_matches_timoshenko_with_the_memos_substitutions(kinematics, substitute):
-    """Memo T2 (0.5 mm Si on 1.6 mm FR-4, ΔT = −100 K): plane strain needs E′ = E/(1−ν²) AND
+    """docs/fem.md §D3 T2 (0.5 mm Si on 1.6 mm FR-4, ΔT = −100 K): plane strain needs E′ = E/(1−ν²) AND
     α′ = (1+ν)α (1.0571 1/m), plane stress the plain values (0.8787 1/m); ≤ 0.5 % (acceptance)."""
     (e1, a1), (e2, a2) = ((plane_strain_substitution(SI, 2.6e-6), plane_strain_substitution(FR4, 15e-6))
                           if substitute else ((SI.youngs_pa, 2.6e-6), (FR4.youngs_pa, 15e-6)))
     ref = timoshenko_curvature_per_m(0.5e-3, 1.6e-3, e1, e2, a1, a2, -100.0)
     fe = bimetal_curvature_fe(SI, FR4, 0.5e-3, 1.6e-3, 2.6e-6, 15e-6, -100.0, kinematics)
     assert abs(-fe.curvature_per_m / ref - 1) <= 0.005  # sign: see the steel/aluminium test
-    assert abs(ref) == pytest.approx(1.0571 if substitute else 0.87874, rel=2e-4)  # the memo's numbers
+    assert abs(ref) == pytest.approx(1.0571 if substitute else 0.87874, rel=2e-4)  # docs/fem.md §D3 T2
 
 
 def test_observed_convergence_order_of_q2_is_three_in_l2_and_two_in_h1():
@@ -77,7 +77,7 @@ def test_observed_convergence_order_of_q2_is_three_in_l2_and_two_in_h1():
 
 
 def test_free_homogeneous_silicon_dilates_uniformly_in_gps():
-    """Memo T3: a free homogeneous body in GPS has ε_xx = ε_zz = αΔT and no curvature (exact:
+    """docs/fem.md §D3 T3: a free homogeneous body in GPS has ε_xx = ε_zz = αΔT and no curvature (exact:
     the linear field is in the Q2 space, so only round-off remains; 1e-9 relative)."""
     sol = solve_stack(PackageDesign(layout="bare_die"))
     x = np.linspace(*sol.die_x_m, 7)
@@ -110,7 +110,7 @@ def test_silicon_on_silicon_reproduces_the_analytic_comb(reading):
 
 
 def test_anchor_map_of_a_quadratic_field_gives_the_memos_75_pm():
-    """Memo T6: u = ½ε′x², ε′ = 1 ppm/mm, springs ±400 µm, electrodes ±100 µm → δ = 75 pm = 2.72 mg
+    """docs/fem.md §D3 T6: u = ½ε′x², ε′ = 1 ppm/mm, springs ±400 µm, electrodes ±100 µm → δ = 75 pm = 2.72 mg
     at 3 kHz (small-signal, so within 1 %)."""
     geometry = CombGeometry()
     eps_prime = 1e-6 / 1e-3

@@ -21,7 +21,7 @@ from sim.thermal import first_order_lag
 from twin.calibration.deploy import correction_g
 from twin.calibration.lag import make_X
 from twin.calibration.lagaware import LagAwareCompensator
-from twin.calibration.workflow import method_json
+from twin.calibration.document import method_json
 from twin.firmware import G0_M_S2, FirmwareCalError, lag_aware_c_header, write_lag_aware_c_header
 from twin.firmware.lag_params import lag_coefficients, lag_coefficients_dt
 

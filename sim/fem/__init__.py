@@ -5,5 +5,5 @@ thermoelasticity (plane strain, plane stress or generalised plane strain) with o
 load per material, ``materials_data`` holds the package materials with their sources,
 ``package_stack`` solves a package cross-section, ``comb_on_substrate`` carries the comb's anchors
 on the solved substrate field to an offset [mg] and a scale-factor change [ppm].
-Design memo: ``../shared/design/package-stress.md``; user notes: ``docs/fem.md``.
+User and design notes: ``docs/fem.md``.
 """

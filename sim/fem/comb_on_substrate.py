@@ -4,12 +4,12 @@ Anchors sit on the die's top surface (x relative to the die centre): the proof m
 spring anchors at ``cell_x ± spring_half_span``, the right and left fixed electrodes on anchors at
 ``cell_x ± electrode_half_span`` (``electrode_shift`` moves the right one). The comb layer is
 silicon and dilates freely with ε_Si(T) about its anchors, so what changes the gaps is each
-anchor's displacement beyond the free-silicon dilation, ũ_A = u_A − ε_Si·x_A (design memo
-package-stress.md §1.2). The unstressed mass moves rigidly with the mean of its (equal-stiffness)
+anchor's displacement beyond the free-silicon dilation, ũ_A = u_A − ε_Si·x_A (docs/fem.md,
+design notes §D1). The unstressed mass moves rigidly with the mean of its (equal-stiffness)
 spring anchors, x̃_m; the gaps become g_R = u(1+ε) + ũ_R − x̃_m and g_L = u(1+ε) + x̃_m − ũ_L, and the
 differential capacitance of :mod:`sim.microstructure` (eqs. 16–19, reading H or HE) gives
 offset = ΔC(T, 0 g)/ΔC(T0, 1 g) and scale factor = [ΔC(T, +1 g) − ΔC(T, −1 g)]/[2 ΔC(T0, 1 g)] − 1.
-Not modelled: the springs' axial stress (folded springs carry almost none, memo §1.4), anchor
+Not modelled: the springs' axial stress (folded springs carry almost none, docs/fem.md §D1), anchor
 tilt (−h ∂u_y/∂x, negligible for a few-µm anchor), rotation of the mass.
 """
 
@@ -25,7 +25,7 @@ from sim.microstructure import EPSILON_0_F_PER_M, CombGeometry, deformed, displa
 
 @dataclass(frozen=True)
 class AnchorLayout:
-    """Anchor positions on the die [µm]; the default is centred and symmetric (memo §1.2)."""
+    """Anchor positions on the die [µm]; the default is centred and symmetric (docs/fem.md §D1)."""
 
     cell_x_um: float = 0.0
     spring_half_span_um: float = 400.0

@@ -6,11 +6,11 @@ Kinematics of the cross-section (x along it, y through the thickness, z out of t
 * ``plane_stress``: σ_zz = 0, i.e. λ* = 2λμ/(λ + 2μ) and a thermal modulus β* = E/(1 − ν);
 * ``gps`` (generalised plane strain): ε_zz = ε0, one global unknown, with ∫σ_zz dA = 0. Bordered
   bilinear form ∫[2μ ε(u):ε(v) + λ tr ε(u) tr ε(v)] + ∫λ ε0 tr ε(v) + ∫λ tr ε(u) η + ∫(λ+2μ) ε0 η,
-  load ∫(3λ+2μ) θ [tr ε(v) + η] (design memo package-stress.md §4 item 2).
+  load ∫(3λ+2μ) θ [tr ε(v) + η] (docs/fem.md §D2 item 2).
 
 θ is the free thermal strain ∫α dT. The problem is linear in θ: with θ = Σ_k θ_k 1_{Ω_k} (one
 value per material k), u = Σ_k θ_k U_k where U_k solves a unit thermal strain in material k alone
-(memo §4 item 4). References: Timoshenko & Goodier, *Theory of Elasticity* (1951) §§ 150–152 for
+(docs/fem.md §D2 item 4). References: Timoshenko & Goodier, *Theory of Elasticity* (1951) §§ 150–152 for
 the thermoelastic constitutive law; Barber, *Elasticity* (2010) ch. 14 for plane stress/strain.
 """
 

@@ -1,6 +1,6 @@
 """Package materials: elastic constants and free thermal strain ε_th = ∫α dT, with sources.
 
-Sources are the design memo ``../shared/design/package-stress.md`` §3 (its [S#] tags) and
+Sources are listed in ``docs/fem.md``, design notes §D4, and
 ``../shared/reference/physics_reference.json`` (``package_cte_ppm_per_K``). Silicon takes α(T) and
 E(T) from :mod:`sim.materials`; E is held at the reference temperature in the elastic solve.
 """
@@ -14,7 +14,7 @@ import numpy as np
 from sim.fem.elasticity import IsotropicMaterial
 from sim.materials import KELVIN, silicon_thermal_strain, silicon_youngs_modulus_pa
 
-SILICON_POISSON_110 = 0.064  # in-plane ν along ⟨110⟩, the die edges (memo §3, [S8])
+SILICON_POISSON_110 = 0.064  # in-plane ν along ⟨110⟩, the die edges (Hopcroft et al. 2010; docs/fem.md §D4)
 
 
 @dataclass(frozen=True)
@@ -48,31 +48,31 @@ def silicon(reference_c: float = 25.0) -> PackageMaterial:
     """Silicon die: E(T_ref) of Gysin et al. (sim.materials), ν ⟨110⟩; α(T) via :func:`strain`."""
     e_gpa = float(silicon_youngs_modulus_pa(reference_c + KELVIN)) / 1e9
     return PackageMaterial("silicon", e_gpa, SILICON_POISSON_110, 2.55, source="sim.materials (Okada & Tokumaru "
-                           "1984 α(T), Gysin 2004 E(T)); ν memo §3 [S8]")
+                           "1984 α(T), Gysin 2004 E(T)); ν Hopcroft 2010")
 
 
 def fr4() -> PackageMaterial:
-    return PackageMaterial("FR-4", 25.0, 0.18, 15.0, source="memo §3 [S10, S11]: in-plane E 25 GPa, ν_xy 0.18, "
+    return PackageMaterial("FR-4", 25.0, 0.18, 15.0, source="docs/fem.md §D4: in-plane E 25 GPa, ν_xy 0.18, "
                            "α 15 ppm/K (physics_reference.json FR4_xy 14-20)")
 
 
 def sac305() -> PackageMaterial:
-    return PackageMaterial("SAC305", 45.0, 0.36, 22.0, source="memo §3 [S12, R]: E 40-50 GPa, α 21-23 ppm/K "
+    return PackageMaterial("SAC305", 45.0, 0.36, 22.0, source="docs/fem.md §D4: E 40-50 GPa, α 21-23 ppm/K "
                            "(physics_reference.json solder_SAC305)")
 
 
 def copper_c194() -> PackageMaterial:
-    return PackageMaterial("Cu C194", 121.0, 0.36, 17.4, source="memo §3 [S15, S10]: leadframe 0.203 mm")
+    return PackageMaterial("Cu C194", 121.0, 0.36, 17.4, source="docs/fem.md §D4: leadframe 0.203 mm")
 
 
 def epoxy_attach(youngs_gpa: float = 3.9) -> PackageMaterial:
     return PackageMaterial("die attach", youngs_gpa, 0.35, 40.0, 150.0, 120.0,
-                           source="memo §3 [S13] 84-1LMISR4: 3.9 GPa at 25 °C, α1 40 / α2 150 ppm/K, Tg 120 °C")
+                           source="docs/fem.md §D4, 84-1LMISR4: 3.9 GPa at 25 °C, α1 40 / α2 150 ppm/K, Tg 120 °C")
 
 
 def mould_compound(cte1_ppm_per_k: float = 11.0) -> PackageMaterial:
     return PackageMaterial("mould", 23.0, 0.28, cte1_ppm_per_k, 36.0, 128.0,
-                           source="memo §3 [S13, S20] EMC-G845: 23 GPa, α1 11 / α2 36 ppm/K, Tg 128 °C")
+                           source="docs/fem.md §D4, EMC-G845: 23 GPa, α1 11 / α2 36 ppm/K, Tg 128 °C")
 
 
 def free_strain(material: PackageMaterial, temperature_c, reference_c: float) -> np.ndarray:

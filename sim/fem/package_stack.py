@@ -3,15 +3,15 @@
 Geometry (µm, x along the sensing axis through the package centre, y up): an FR-4 board, SAC305
 joints under the exposed pad and under the leads, a Cu leadframe (pad + leads, mould between), the
 die attach, the MEMS die (die + cap as one silicon block) and the mould compound up to the
-package height (QFPN-24, 4 × 4 × 1.8 mm; pad 2.3 mm, leadframe 0.203 mm: datasheet Fig. 12 via
-memo §1). The die size and stand-offs are not public: stated assumptions (memo §4 item 1).
+package height (QFPN-24, 4 × 4 × 1.8 mm; pad 2.3 mm, leadframe 0.203 mm: datasheet DS10757
+Fig. 12). The die size and stand-offs are not public: stated assumptions (docs/fem.md §D2 item 1).
 
 The stack is stress-free at ``stress_free_c`` (cure). The elastic problem is linear in the free
 thermal strain of each material, so ``U_k`` (unit θ in material k) is solved once with one LU
 factorisation and u(T) = Σ_k θ_k(T) U_k — exact for α(T) of any shape, including silicon's and a
-Tg step (memo §4 item 4). Approximated: E and ν held at their reference values (silicon's E(T)
+Tg step (docs/fem.md §D2 item 4). Approximated: E and ν held at their reference values (silicon's E(T)
 moves −68 ppm/K, i.e. 0.4 % over 60 K; polymers far more near Tg), no creep, no 3-D effects (the
-generalised plane-strain curvature of a square die is ≈ 15 % above the 3-D biaxial one, memo §5 T2).
+generalised plane-strain curvature of a square die is ≈ 15 % above the 3-D biaxial one, docs/fem.md §D3 T2).
 """
 
 from __future__ import annotations

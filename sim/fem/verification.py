@@ -1,6 +1,6 @@
 """Analytic references for the FE model: Timoshenko's bimetal, a manufactured smooth solution.
 
-Used by tests/test_fem.py and benchmarks/bench_fem.py (design memo package-stress.md §2, §5).
+Used by tests/test_fem.py and benchmarks/bench_fem.py (docs/fem.md, design notes §D3).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ def timoshenko_curvature_per_m(t1_m, t2_m, e1_pa, e2_pa, alpha1_per_k, alpha2_pe
 
 
 def plane_strain_substitution(material: IsotropicMaterial, alpha_per_k: float) -> tuple[float, float]:
-    """(E′, α′) = (E/(1 − ν²), (1 + ν)α): the beam formula's inputs for a plane-strain section (memo §2.1)."""
+    """(E′, α′) = (E/(1 − ν²), (1 + ν)α): the beam formula's inputs for a plane-strain section (docs/fem.md §D3)."""
     nu = material.poisson
     return material.youngs_pa / (1 - nu * nu), (1 + nu) * alpha_per_k
 
@@ -44,8 +44,7 @@ def bimetal_curvature_fe(m1: IsotropicMaterial, m2: IsotropicMaterial, t1_m, t2_
                          delta_t_k, kinematics="plane_strain", length_m=20e-3, dx_m=0.25e-3,
                          layers_per_material=4) -> BimetalResult:
     """FE curvature of a free strip (material 1 below): quadratic fit of u_y on the interface over
-    the central half, away from the free-edge boundary layers (memo §5: 'curvature fitted over the
-    central half')."""
+    the central half, away from the free-edge boundary layers (docs/fem.md, design notes §D3)."""
     lm = layered_mesh([-length_m / 2, length_m / 2], [0.0, t1_m, t1_m + t2_m], [[0], [1]], dx_m,
                       [t1_m / layers_per_material, t2_m / layers_per_material])
     system = assemble(lm.mesh, lm.material, [m1, m2], kinematics)

@@ -17,10 +17,13 @@ import numpy as np
 
 from twin.calibration.correction import CalibrationDocumentError, correction_g
 from twin.calibration.correction import firmware_cal as _firmware_cal
-from twin.calibration.workflow import MAX_DEVICE_ID, PX4_INSTANCES, SCHEMA, SCHEMA_VERSION
+from twin.calibration.document import SCHEMA, SCHEMA_VERSION
+from twin.calibration.workflow import MAX_DEVICE_ID, PX4_INSTANCES
 from twin.errors import TwinError
 from twin.firmware import (
+    ArduPilotAccelCal,
     FirmwareValueError,
+    Px4AccelCal,
     c_header,
     cal_from_dict,
     cal_to_dict,
@@ -30,6 +33,18 @@ from twin.firmware import (
 from twin.io import atomic_write_text, read_text, strict_json
 
 FORMATS = ("px4", "ardupilot", "json", "c")
+FIRMWARE_CAL = {"px4": Px4AccelCal, "ardupilot": ArduPilotAccelCal}  # what each parameter file holds
+NO_GYRO = {  # what loading an accel-only file does to the vehicle's gyro temperature calibration
+    "px4": "accel only (the log had no gyro): no TC_G line, so the vehicle's TC_G* calibration is left as it is",
+    "ardupilot": "accel only (the log had no gyro): no INS_TCALn_GYR* line, so the vehicle's gyro terms stay, and "
+                 "with INS_TCALn_ENABLE 1 and this TMIN/TMAX they apply: check them (or zero them) before flight",
+}
+AFTER_LOADING = {
+    "px4": "after loading: reboot, then redo the accelerometer (and gyro) calibration: TC_An_X0 holds the offset at "
+           "TREF, which the old CAL_ACCn offsets would count twice",
+    "ardupilot": "after loading: reboot; the correction is zero at INS_ACCn_CALTEMP / INS_GYRn_CALTEMP, so the "
+                 "existing accelerometer and gyro calibrations stay valid",
+}
 
 
 def read_calibration(path: str | Path) -> dict:
@@ -166,6 +181,7 @@ class Export:
     path: Path
     lines: int
     notes: tuple[str, ...] = ()
+    methods: tuple[str, ...] = ()  # the method written for each IMU
 
 
 def _with_device_id(cal, entry: dict, device_id: int | None, sensor: str):
@@ -201,7 +217,8 @@ def _gyro_cal(entry: dict, target: str, force: bool):
 
 def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | None = None,
                        instance: int | None = None, sample_rate_hz: float | None = None,
-                       device_id: int | None = None, force: bool = False) -> Export:
+                       device_id: int | None = None, gyro_device_id: int | None = None,
+                       force: bool = False) -> Export:
     """Write the firmware file ``fmt`` (px4, ardupilot, json, c) for the document's IMUs.
 
     PX4 and ArduPilot files carry the gyro calibration when the log had the gyro, and no gyro line
@@ -219,29 +236,38 @@ def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | N
     if fmt not in FORMATS:
         raise CalibrationDocumentError(f"--format must be one of {', '.join(FORMATS)}, got {fmt!r}")
     entries = doc["imus"] if instance is None else [imu_entry(doc, instance)]
-    if device_id is not None and len(entries) > 1:
-        raise CalibrationDocumentError(f"--device-id names one sensor, but the calibration holds IMU instances "
-                                       f"{[e['instance'] for e in entries]}; choose one with --imu")
+    for option, value in (("--device-id", device_id), ("--gyro-device-id", gyro_device_id)):
+        if value is not None and len(entries) > 1:
+            raise CalibrationDocumentError(f"{option} names one sensor, but the calibration holds IMU instances "
+                                           f"{[e['instance'] for e in entries]}; choose one with --imu")
     path = Path(path)
     if fmt in ("px4", "ardupilot"):
-        accel, gyros, notes = [], [], []
+        accel, gyros, notes, names = [], [], [], []
         for e in entries:
             name, data = method_entry(e, method or fmt, fmt, force)
             cal = _firmware_cal(data, name)
-            gyro = _gyro_cal(e, fmt, force)
+            if not isinstance(cal, FIRMWARE_CAL[fmt]):
+                raise CalibrationDocumentError(f"IMU instance {e['instance']}: method {name!r} is a "
+                                               f"{type(cal).__name__}; --format {fmt} writes the {fmt} method only")
+            gyro, note = _gyro_cal(e, fmt, force), None
             if fmt == "px4":
                 cal = _with_device_id(cal, e, device_id, "accel")
-                gyro = gyro and _with_device_id(gyro, e, (e.get("gyro") or {}).get("device_id"), "gyro")
+                if gyro is not None and not gyro.device_id and gyro_device_id is None:
+                    gyro, note = None, (f"IMU {e['instance']}: accel only: the gyro calibration has no device id, and "
+                                        f"PX4 applies TC_G{cal.instance} only to the gyro whose device_id equals its "
+                                        f"ID; pass --gyro-device-id (the vehicle's CAL_GYRO{cal.instance}_ID) to "
+                                        "write it")
+                elif gyro is not None:
+                    gyro = _with_device_id(gyro, e, gyro_device_id, "gyro")
             accel.append(cal)
+            names.append(name)
             if gyro is not None:
                 gyros.append(gyro)
-            notes.append(f"IMU {e['instance']}: accel" + (" and gyro" if gyro is not None else
-                                                           " only (the log had no gyro: no gyro line, so the "
-                                                           "vehicle keeps its own gyro calibration)"))
+            notes.append(note or f"IMU {e['instance']}: " + ("accel and gyro" if gyro is not None else NO_GYRO[fmt]))
         text = (checked_px4_params_text(accel, gyro=gyros or None) if fmt == "px4"
                 else checked_ardupilot_parm_text(accel, gyro=gyros or None))
         atomic_write_text(path, text)
-        return Export(path, text.count("\n"), tuple(notes))
+        return Export(path, text.count("\n"), tuple(notes) + (AFTER_LOADING[fmt],), tuple(names))
     if len(entries) > 1:
         raise CalibrationDocumentError(f"--format {fmt} writes one IMU; name it with --imu "
                                        f"(instances {[e['instance'] for e in entries]})")
@@ -264,4 +290,4 @@ def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | N
 
         text = lag_aware_c_header(data, sample_rate_hz)
     atomic_write_text(path, text)
-    return Export(path, text.count("\n"))
+    return Export(path, text.count("\n"), methods=(name,))

@@ -10,7 +10,8 @@ import numpy as np
 
 from twin.calibration.lag import make_X
 from twin.calibration.models import AXES
-from twin.calibration.workflow import AS_APPLIED, ImuCalibration
+from twin.calibration.document import AS_APPLIED
+from twin.calibration.workflow import ImuCalibration
 from twin.io import atomic_write_text
 from twin.measurement import ImuLog
 from twin.reporting.plots import png_base64

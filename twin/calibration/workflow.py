@@ -7,16 +7,13 @@ the validation table, and provenance (input hashes, software version, validation
 
 from __future__ import annotations
 
-import datetime as _dt
-import hashlib
-import json
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from twin.calibration.branches import protocol_heating_vs_cooling
 from twin.calibration.correction import correction_g
+from twin.calibration.document import AS_APPLIED, method_json
 from twin.calibration.lag import make_X
 from twin.calibration.lagaware import LagAwareCompensator
 from twin.calibration.methods import (
@@ -31,14 +28,10 @@ from twin.calibration.orientation import cluster_orientations, fit_offset_scale,
 from twin.calibration.plausibility import PlausibilityLimits, limits_for_part, method_flags, tcso_flags
 from twin.calibration.validate import ValidationResult, validate
 from twin.errors import TwinError
-from twin.firmware import cal_to_dict
-from twin.io import strict_json
 from twin.measurement import ImuLog, usable_for_calibration
 from twin.measurement.imu import MIN_SAMPLES, MIN_TEMPERATURE_RANGE_C
 from twin.measurement.quality import LogQuality, LogQualityError, QualitySettings, assess_log
 
-SCHEMA = "tde-twin calibration"
-SCHEMA_VERSION = 1
 # what each firmware can run: its own polynomial in the raw temperature, or (custom C) the lag-aware model
 DEPLOYABLE = {"px4": ("px4",), "ardupilot": ("ardupilot",), "c": ("twin", "polynomial", "px4", "ardupilot")}
 # the instances each firmware has: PX4 TC_A0..TC_A3 (TemperatureCompensation.h, ACCEL_COUNT_MAX 4),
@@ -46,11 +39,11 @@ DEPLOYABLE = {"px4": ("px4",), "ardupilot": ("ardupilot",), "c": ("twin", "polyn
 PX4_INSTANCES = range(4)
 ARDUPILOT_INSTANCES = range(3)
 MAX_DEVICE_ID = 2**32 - 1  # device ids are uint32 in both firmwares
-AS_APPLIED = "_as_applied"  # suffix of a firmware method scored as the vehicle applies its file
 # a still MEMS gyro: zero-rate offset within a few °/s and a bias tempco of a few hundredths of
 # °/s per °C (e.g. ±0.05 °/s/°C class parts); ten times those is not temperature drift
 GYRO_MAX_BIAS_RAD_S = np.radians(10.0)
 GYRO_MAX_SLOPE_RAD_S_PER_C = np.radians(0.5)
+MULTI_POSITION_FACES = 3  # this many faces in one log make a six-position or tumble test
 MIN_STATIC_S = 60.0  # a calibration needs at least a minute of still rows (and MIN_TEMPERATURE_RANGE_C of span)
 
 
@@ -131,6 +124,32 @@ def _check_log(log: ImuLog) -> None:
         raise CalibrationInputError(f"{where}: acceleration has NaN or infinite samples")
     if len(log) < MIN_SAMPLES:  # too short to assess; otherwise the span is checked on the still rows
         raise CalibrationInputError(usable_for_calibration(log)[1])
+
+
+def one_attitude_per_face(quality: LogQuality) -> LogQuality:
+    """The attitudes a calibration may fit together: one, unless the log is a multi-position test.
+
+    An offset fit cannot tell a change of attitude from drift: a vehicle put down 2° differently,
+    or upside down after a crash at a few degrees off the face, reads tens of mg more on a cross
+    axis. So the still rows of one attitude are fitted — the one spanning the most temperature
+    (then the longest) — and the others are excluded with the reason; a log holding
+    :data:`MULTI_POSITION_FACES` faces or more is a six-position or tumble test, fitted with one
+    attitude or more per face (orientation calibration: a fixture revisits its faces) and no tilted one.
+    """
+    groups = quality.attitudes()
+    if len(groups) <= 1:
+        return quality
+    extent = lambda k: (max(st.temperature_max_c for st in groups[k]) - min(st.temperature_min_c for st in groups[k]),  # noqa: E731
+                        sum(st.duration_s for st in groups[k]))
+    faces = {v[0].label for v in groups.values()} - {"tilted"}
+    if len(faces) >= MULTI_POSITION_FACES:  # a fixture revisits its faces at each plateau: all of them count
+        keep = {k for k, v in groups.items() if v[0].label != "tilted"}
+        return quality.keeping_attitudes(keep, "a multi-position test is fitted on its faces, never a tilted attitude")
+    [main] = keep = {max(groups, key=extent)}
+    first = groups[main][0]
+    return quality.keeping_attitudes(keep, f"still, but the fitted rows are attitude {main} ({first.label}, from "
+                                           f"{first.t0_s:.0f} s) and an offset fit cannot tell a change of attitude "
+                                           "from drift")
 
 
 def still_rows(qualities: tuple[LogQuality, ...], min_static_s: float = MIN_STATIC_S,
@@ -220,7 +239,7 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     if given is not None and logged and given not in logged:
         raise CalibrationInputError(f"{where}: the log records device_id {logged.pop()}, but --device-id is {given}")
     device = given if given is not None else check_device_id(next(iter(logged), None), where)
-    qualities = tuple(assess_log(log, settings) for log in logs)
+    qualities = tuple(one_attitude_per_face(assess_log(log, settings)) for log in logs)
     keep = still_rows(qualities)
     time_s = np.concatenate([log.time_s for log in logs])
     temperature_c = np.concatenate([log.temperature_c for log in logs])
@@ -239,10 +258,17 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     validation = validate({**models, **as_applied(models)}, time_s, temperature_c, accel_g, protocol, run=run_or_none)
     X = make_X(time_s, temperature_c, run_or_none)
     fitted = {name: est.clone().fit(X, accel_g) for name, est in models.items()}
-    gyro = None
-    if all(log.has_gyro for log in logs):
-        gyro_rad_s = np.concatenate([log.gyro_rad_s for log in logs])[rows]
-        gyro = calibrate_gyro(first, X, gyro_rad_s, protocol, run_or_none)
+    gyro, gyro_rad_s, gyro_note = None, None, ()
+    if any(log.has_gyro for log in logs):
+        gyro_rad_s = np.concatenate([log.gyro_rad_s for log in logs])[rows] if all(log.has_gyro for log in logs) else None
+        missing = -1 if gyro_rad_s is None else int(np.sum(~np.isfinite(gyro_rad_s).all(axis=1)))
+        ids = {log.gyro_device_id for log in logs if log.gyro_device_id}
+        why = ("not every log has it" if missing < 0 else f"{missing} of the fitted rows have no gyro sample" if missing
+               else f"the logs record gyro device ids {sorted(ids)}" if len(ids) > 1 else None)
+        if why:  # a gyro file fitted on part of the rows, or on two gyros, would not be what was validated
+            gyro_note = (f"IMU instance {first.instance}: gyro left out ({why}): no gyro calibration is written",)
+        else:
+            gyro = calibrate_gyro(first, X, gyro_rad_s, protocol, run_or_none)
     rate = float(1.0 / np.median(np.diff(first.time_s)))
     span = (float(temperature_c.min()), float(temperature_c.max()))
     limits = limits or limits_for_part()
@@ -250,8 +276,8 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
              for name, est in fitted.items()}
     if orientations:
         orientations["flags"] = tcso_flags(orientations, limits)
-    notes = () if "ardupilot" in models else (f"IMU instance {first.instance}: ArduPilot has INS_TCAL1..3 for "
-                                              "instances 0..2 only; no ArduPilot method",)
+    notes = gyro_note + (() if "ardupilot" in models else (f"IMU instance {first.instance}: ArduPilot has INS_TCAL1..3 "
+                                                           "for instances 0..2 only; no ArduPilot method",))
     return ImuCalibration(first.instance, device, tuple(log.source for log in logs), int(time_s.size), span, rate,
                           protocol.name, validation, fitted, orientations, flags, notes, gyro, qualities)
 
@@ -329,55 +355,6 @@ def orientation_calibration(time_s, temperature_c, accel_g, quality: LogQuality)
     return summary, keep, gravity
 
 
-def file_provenance(paths) -> list[dict]:
-    """Path, size and SHA-256 of each input file."""
-    out = []
-    for p in map(Path, paths):
-        h = hashlib.sha256()
-        with p.open("rb") as f:
-            for chunk in iter(lambda: f.read(1 << 20), b""):
-                h.update(chunk)
-        out.append({"path": str(p), "bytes": p.stat().st_size, "sha256": h.hexdigest()})
-    return out
-
-
-def _validation_json(v: ValidationResult, unit: str = "mg") -> dict:
-    """The validation table; ``unit`` names the figures (mg for the accelerometer, mrad_s for the gyro)."""
-    tests = {}
-    for s in v.scores:
-        key = f"{s.fold}: {s.test}"
-        tests.setdefault(key, {"samples": s.n, "extrapolated_fraction": s.extrapolated_fraction, f"rms_{unit}": {}})
-        tests[key][f"rms_{unit}"][s.method] = dict(zip(AXES, s.rms_mg))
-    return {f"noise_floor_{unit}": dict(zip(AXES, v.noise_floor_mg)),
-            f"heldout_rms_{unit}": {m: dict(zip(AXES, map(float, v.rms_mg(m)))) for m in v.methods},
-            "best_overall": dict(zip(AXES, v.best_method)), "tests": tests, "notes": list(v.notes),
-            "as_applied": f"'<method>{AS_APPLIED}': the file written for the method, applied as the vehicle does "
-                          "(float32; PX4 republishes its offset only after the temperature moved > 1 °C, checked "
-                          "once a second; ArduPilot re-references at the calibration temperature)"}
-
-
-def _gyro_json(g: GyroCalibration) -> dict:
-    return {"device_id": g.device_id, "unit": "rad/s", "validation": _validation_json(g.validation, "mrad_s"),
-            "recommended": g.recommended(), "flags": {n: f for n, f in g.flags.items() if f},
-            "methods": {name: method_json(name, est) for name, est in g.fitted.items()}}
-
-
-def method_json(name: str, est) -> dict:
-    """A fitted method as data: firmware calibrations in their own schema; the twin's lags and coefficients."""
-    if hasattr(est, "cal_"):
-        level = "level_g" if est.sensor == "accel" else "level_rad_s"
-        return {"kind": "firmware", level: list(map(float, est.level_g_)), "firmware": cal_to_dict(est.cal_),
-                "equation": est.equation()}
-    doc = {"kind": type(est).__name__, "reference_c": est.reference_c, "coef_mg": est.coef_mg_.tolist(),
-           "equation": est.equation()}
-    if isinstance(est, LagAwareCompensator):
-        doc.update(tau_die_s=est.tau_die_s_.tolist(), tau_rate_s=[None if not np.isfinite(t) else float(t)
-                                                                   for t in est.tau_rate_s_],
-                   rate_mg_per_c=est.rate_mg_per_c_.tolist(), tau_die_ci95_s=est.tau_die_ci95_s_.tolist(),
-                   shared=bool(est.shared_))
-    return doc
-
-
 def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[list[ImuCalibration], dict[int, str]]:
     """:func:`calibrate_imu` for each instance; an instance whose logs cannot be calibrated is
     skipped with the reason when others can (a flight controller's second IMU on a cooler part
@@ -398,26 +375,3 @@ def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[li
     if not done:
         raise CalibrationInputError("no IMU can be calibrated: " + "; ".join(skipped.values()))
     return done, skipped
-
-
-def calibration_json(imus: list[ImuCalibration], inputs: list[dict], version: str,
-                     skipped: dict[int, str] | None = None) -> dict:
-    """The versioned calibration document (``-o CAL.json``); ``skipped``: instance → why not calibrated."""
-    return strict_json({
-        "schema": SCHEMA, "schema_version": SCHEMA_VERSION, "software_version": version,
-        "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "inputs": inputs,
-        "skipped": [{"instance": k, "reason": r} for k, r in sorted((skipped or {}).items())],
-        "imus": [{
-            "instance": c.instance, "device_id": c.device_id, "sources": list(c.sources), "samples": c.samples,
-            "temperature_span_c": list(c.temperature_span_c), "sample_rate_hz": c.sample_rate_hz,
-            "protocol": c.protocol, "validation": _validation_json(c.validation),
-            "recommended": c.recommended(),
-            "flags": {name: list(f) for name, f in (c.flags or {}).items() if f},
-            "notes": list(c.notes),
-            "log_quality": [json.loads(q.to_json()) for q in c.quality],
-            **({"orientations": c.orientations} if c.orientations else {}),
-            **({"gyro": _gyro_json(c.gyro)} if c.gyro else {}),
-            "methods": {name: method_json(name, est) for name, est in c.fitted.items()},
-        } for c in imus],
-    })

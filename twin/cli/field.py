@@ -33,7 +33,7 @@ def _distinct(output: Path, json_out: str | None) -> None:
 def _rms_rows(v, idx: list[int], unit: str) -> None:
     """The held-out table, a row per method and fold; a firmware method's figure as the vehicle
     applies the written file beside its ideal one."""
-    from twin.calibration.workflow import AS_APPLIED
+    from twin.calibration.document import AS_APPLIED
 
     fmt = lambda r: " / ".join(f"{r[i]:6.2f}" for i in idx)  # noqa: E731
     ideal = [m for m in v.methods if not m.endswith(AS_APPLIED)]
@@ -128,7 +128,8 @@ def calibrate(
     validate each on data it was not fitted on (heating vs cooling, or leave one run out)."""
     from twin import __version__
     from twin.calibration.plausibility import limits_for_part
-    from twin.calibration.workflow import calibrate_imus, calibration_json, file_provenance
+    from twin.calibration.document import calibration_json, file_provenance
+    from twin.calibration.workflow import calibrate_imus
     from twin.measurement import imu_logs_by_instance
 
     with guard(inputs=logs + ([columns] if columns else []), outputs=_outputs(output, json_out)):
@@ -175,6 +176,7 @@ def firmware(
     imu: Annotated[Optional[int], typer.Option("--imu", help="IMU instance (json and c write one)")] = None,
     sample_rate_hz: Annotated[Optional[float], typer.Option("--sample-rate-hz", help="rate the firmware runs the lag filters at (c) [Hz]")] = None,
     device_id: Annotated[Optional[int], typer.Option("--device-id", help="the sensor's device id, when the calibration has none (px4: TC_An_ID)")] = None,
+    gyro_device_id: Annotated[Optional[int], typer.Option("--gyro-device-id", help="the gyro's device id, when the calibration has none (px4: TC_Gn_ID)")] = None,
     force: Annotated[bool, typer.Option("--force", help="export a method the calibration flagged as implausible")] = False,
     json_out: JsonOpt = None,
 ) -> None:
@@ -187,9 +189,9 @@ def firmware(
             raise TwinError(f"--sample-rate-hz must be in (0, 1e6) Hz, got {sample_rate_hz}")
         doc = read_calibration(calibration)
         written = export_calibration(doc, fmt, output, method=method, instance=imu, sample_rate_hz=sample_rate_hz,
-                                     device_id=device_id, force=force)
-    result = {"output": str(output), "format": fmt, "method": method, "imu": imu, "lines": written.lines,
-              "notes": list(written.notes)}
+                                     device_id=device_id, gyro_device_id=gyro_device_id, force=force)
+    result = {"output": str(output), "format": fmt, "method": written.methods[0] if len(set(written.methods)) == 1
+              else list(written.methods), "imu": imu, "lines": written.lines, "notes": list(written.notes)}
     if json_out != "-":
         checked = ", read back and checked as the ground station loads it" if fmt in ("px4", "ardupilot") else ""
         typer.echo(f"wrote {output} ({fmt}, {written.lines} lines{checked})")

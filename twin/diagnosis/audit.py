@@ -1,4 +1,4 @@
-"""Audit what this data can test (diagnosis-methods §1 step 0, §2).
+"""Audit what this data can test (docs/diagnosis.md §1 step 0, §2).
 
 Novelty of every effect against what the calibrated model can already absorb (per-run offsets,
 the model's own free amplitudes): aliased or untestable effects are listed with the test step

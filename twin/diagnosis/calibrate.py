@@ -1,4 +1,4 @@
-"""Calibrate the twin's effects to the measurement (diagnosis-methods §1 step 2).
+"""Calibrate the twin's effects to the measurement (docs/diagnosis.md §1 step 2).
 
 Bounded linear least squares for amplitudes, profile search and bounded refinement for nonlinear
 parameters, 95 % intervals from the prewhitened (GLS) fit and the profile likelihood; amplitudes

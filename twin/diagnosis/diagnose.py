@@ -1,6 +1,6 @@
 """Compare the twin with a measurement, show where it fails, and name the missing effect.
 
-Pipeline (diagnosis-methods §1), one module per step:
+Pipeline (docs/diagnosis.md §1), one module per step:
 
 0. **Audit** (:mod:`~twin.diagnosis.audit`): novelty of every effect against what the calibrated
    model can already absorb (per-run offsets, the model's own free amplitudes): aliased or

@@ -1,5 +1,5 @@
 """Datasets with a hidden effect, drawn by a seeded generator, for the diagnosis acceptance tests
-and the Monte-Carlo benchmark (diagnosis-methods §3.1).
+and the Monte-Carlo benchmark (docs/diagnosis.md §3.1).
 
 The device = the twin + one hidden module, through the same simulator. Test plan: 25 → 85 → −40 →
 25 °C at 1 and 2 °C/min with 30-min dwells, two runs (+1 g, −1 g), a power cycle in each run,
@@ -44,7 +44,7 @@ CASES = {
     "thermal_gradient": "thermal_lag",  # stress ∝ dT/dt of its own sign and size: not what a lag predicts
 }
 
-#: detectable RMS over σ of the noise on 10-s means (diagnosis-methods §3.1 item 7)
+#: detectable RMS over σ of the noise on 10-s means (docs/diagnosis.md §3.1 item 7)
 LEVEL_BANDS = {"clear": (1.5, 3.0), "marginal": (0.5, 1.0), "sub": (0.1, 0.3)}
 #: cases whose hidden term is linear in its amplitudes, so the level can be set exactly
 LINEAR_CASES = {"hysteresis", "creep_2term", "thermal_gradient", "scale_factor", "scale_factor_cubic", "aging",

@@ -13,7 +13,7 @@ from twin.diagnosis.structure import both_directions
 if TYPE_CHECKING:
     from twin.diagnosis.diagnose import Diagnosis
 
-# What would make an effect testable or separable (diagnosis-methods §2).
+# What would make an effect testable or separable (docs/diagnosis.md §2).
 REMEDY = {
     "scale_factor": "add orientations: a +1 g / -1 g (tumble) run makes scale-factor drift odd in g",
     "bias_tc": "bias tempcos of MEMS, package and ASIC share one signature: only another package/board or "

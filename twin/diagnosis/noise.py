@@ -1,7 +1,7 @@
 """Noise model for the diagnosis: block averaging, AR(p) by Yule–Walker, prewhitening, noise floor.
 
 The IIS328DQ residual carries slow correlated noise (bias instability), so every test statistic
-is computed on prewhitened data (diagnosis-methods §0, §1 step 3): AR(p) with p chosen by BIC up
+is computed on prewhitened data (docs/diagnosis.md §0, §1 step 3): AR(p) with p chosen by BIC up
 to 20, prewhitening per run *without dropping the first samples* (power-on transients live there).
 """
 

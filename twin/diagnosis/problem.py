@@ -1,4 +1,4 @@
-"""The measurement prepared for modelling (diagnosis-methods §1 step 1) and the model's design.
+"""The measurement prepared for modelling (docs/diagnosis.md §1 step 1) and the model's design.
 
 The thermometer is smoothed with a zero-phase filter only (a causal one would inject the lag the
 tool then "discovers"); blocks are averaged (10 s) for screening.

@@ -1,4 +1,4 @@
-"""Screen every registered effect not in the model (diagnosis-methods §1 step 4).
+"""Screen every registered effect not in the model (docs/diagnosis.md §1 step 4).
 
 Each candidate is tested on its parameter grid on top of the calibrated model: prewhitened
 F-test, Bonferroni over every test, ΔBIC, held-out gain by interleaved-block cross-validation.
@@ -230,7 +230,7 @@ def _retest_with_walk(problem: Problem, J: np.ndarray, y: np.ndarray, c: Candida
 def refine_grid_value(problem: Problem, cal: Calibration, c: CandidateResult, J: np.ndarray,
                       y: np.ndarray) -> dict[str, float]:
     """The candidate's one varying nonlinear parameter (τ, play width) refined between its grid
-    neighbours by maximising the screening ΔBIC on a log scale (diagnosis-methods §1 step 5);
+    neighbours by maximising the screening ΔBIC on a log scale (docs/diagnosis.md §1 step 5);
     ``J``, ``y``: the calibrated model's design and target on averages, as in :func:`screen`.
 
     Parameters

@@ -1,4 +1,4 @@
-"""Where the model fails (diagnosis-methods §1 step 3): the residual split by segment, run,
+"""Where the model fails (docs/diagnosis.md §1 step 2): the residual split by segment, run,
 orientation and temperature bin, and the hysteresis loop area."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Forward selection and the confidence label (diagnosis-methods §1 step 5).
+"""Forward selection and the confidence label (docs/diagnosis.md §1 step 5).
 
 The best-ranked significant candidate is named, unless a testable candidate of another family
 outranks it (more ΔBIC, short of a threshold); then nothing is named, the pair is reported as

@@ -9,10 +9,10 @@ from twin.effects.base import Contribution, Effect, Parameter, register
 class AgingDrift(Effect):
     name = "aging_drift"
     family = "aging"
-    description = "bias = d·t + c·ln(1 + t/t0), t from the first sample (diagnosis-methods §2j)"
+    description = "bias = d·t + c·ln(1 + t/t0), t from the first sample (docs/diagnosis.md §2j)"
     reads = ("time_s",)
     parameters = (
-        Parameter("rate_mg_per_h", "mg/h", 0.05, (-10.0, 10.0), "well under 0.1 mg/h for a settled part (§2j)"),
+        Parameter("rate_mg_per_h", "mg/h", 0.05, (-10.0, 10.0), "well under 0.1 mg/h for a settled part (docs/diagnosis.md §2j)"),
         Parameter("log_mg", "mg", 0.0, (-50.0, 50.0), "logarithmic settling amplitude", screen=False),
         Parameter("t0_s", "s", 3600.0, (1.0, 1e7), "logarithmic time scale", role="fixed", free=False),
     )

@@ -19,7 +19,7 @@ from twin.effects.base import Contribution, Effect, Parameter, register
 from twin.errors import ModelError
 
 _GRID_C = np.arange(-60.0, 150.0 + 1e-9, 0.25)  # fixed grid: a sample never depends on the others (causal)
-_MEMO = "design memo package-stress.md §3"
+_MEMO = "docs/fem.md, design notes §D4"
 
 
 def _fixed(name, unit, default, bounds, source):
@@ -50,17 +50,19 @@ class PackageFem(Effect):
     screened = False
     parameters = (
         Parameter("bias_scale", "1", 1.0, (-20.0, 20.0), "1 = as computed; a fitted value scales the asymmetry "
-                  "(population spread, memo §0 item 2)"),
+                  "(population spread, docs/fem.md §D1)"),
         Parameter("scale_factor_scale", "1", 1.0, (0.0, 20.0), "1 = as computed", free=False),
-        _fixed("mould_cte_ppm_per_k", "ppm/K", 11.0, (3.0, 60.0), f"EMC-G845 α1 ({_MEMO} [S13])"),
-        _fixed("attach_modulus_gpa", "GPa", 3.9, (0.001, 20.0), f"84-1LMISR4 at 25 °C ({_MEMO} [S13])"),
-        _fixed("attach_thickness_um", "um", 25.0, (5.0, 200.0), f"15-40 µm typical ({_MEMO} [S13])"),
-        _fixed("die_thickness_um", "um", 400.0, (150.0, 1000.0), "die + cap, 0.3-0.7 mm (memo §3, assumption)"),
+        _fixed("mould_cte_ppm_per_k", "ppm/K", 11.0, (3.0, 60.0), f"EMC-G845 α1 ({_MEMO})"),
+        _fixed("attach_modulus_gpa", "GPa", 3.9, (0.001, 20.0), f"84-1LMISR4 at 25 °C ({_MEMO})"),
+        _fixed("attach_thickness_um", "um", 25.0, (5.0, 200.0), f"15-40 µm typical ({_MEMO})"),
+        _fixed("die_thickness_um", "um", 400.0, (150.0, 1000.0),
+               "die + cap, 0.3-0.7 mm (assumption, docs/fem.md §D2)"),
         _fixed("die_offset_um", "um", 0.0, (-500.0, 500.0), "die placement relative to the package centre"),
         _fixed("cell_offset_um", "um", 300.0, (-600.0, 600.0), "sense cell centre relative to the die centre "
                "(assumption: a 3-axis die cannot centre every cell)"),
-        _fixed("spring_half_span_um", "um", 400.0, (10.0, 900.0), "spring anchors at ±400 µm (memo §1.2)"),
-        _fixed("electrode_half_span_um", "um", 100.0, (0.0, 900.0), "electrode anchors at ±100 µm (memo §1.2)"),
+        _fixed("spring_half_span_um", "um", 400.0, (10.0, 900.0), "spring anchors at ±400 µm (docs/fem.md §D1)"),
+        _fixed("electrode_half_span_um", "um", 100.0, (0.0, 900.0),
+               "electrode anchors at ±100 µm (docs/fem.md §D1)"),
         REFERENCE_C,
     )
 

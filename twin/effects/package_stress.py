@@ -10,7 +10,7 @@ from twin.effects.base import Contribution, Effect, Parameter, register
 class PackageStress(Effect):
     name = "package_stress"
     family = "bias_tc"
-    description = ("bias = coupling × CTE mismatch × ΔT (diagnosis-methods §2b): same signature as a bias "
+    description = ("bias = coupling × CTE mismatch × ΔT (docs/diagnosis.md §2b): same signature as a bias "
                    "tempco, so aliased with static_bias_tc in output data")
     reads = ("die_c",)
     parameters = (

@@ -13,10 +13,10 @@ class ProbeOffset(Effect):
     acts_on_thermometer = True
     description = ("thermometer reads T + δ. In a simulated device it shifts the logged temperature, not the "
                    "output; in the twin its column is a constant −b1·δ, absorbed exactly by the calibrated "
-                   "offset: structurally unidentifiable (diagnosis-methods §2h)")
+                   "offset: structurally unidentifiable (docs/diagnosis.md §2h)")
     reads = ("thermometer_c",)
     parameters = (
-        Parameter("offset_c", "degC", 0.5, (-10.0, 10.0), "0.2-2 °C is common (§2h)"),
+        Parameter("offset_c", "degC", 0.5, (-10.0, 10.0), "0.2-2 °C is common (docs/diagnosis.md §2h)"),
         Parameter("tc_mg_per_c", "mg/degC", 0.8, (-5.0, 5.0), "bias tempco through which the offset shows",
                   role="fixed", free=False),
     )

@@ -9,13 +9,13 @@ from twin.effects.base import Contribution, Effect, Parameter, register
 class StaticBiasTC(Effect):
     name = "static_bias_tc"
     family = "bias_tc"
-    description = "bias vs die temperature, b1·ΔT + b2·ΔT² + b3·ΔT³ (TCOff; diagnosis-methods §2b/e/f)"
+    description = "bias vs die temperature, b1·ΔT + b2·ΔT² + b3·ΔT³ (TCOff; docs/diagnosis.md §2b/e/f)"
     reads = ("die_c",)
     parameters = (
         Parameter("tc1_mg_per_c", "mg/degC", 0.8, (-5.0, 5.0), "paper eq. (34), attributed to the datasheet; unverified"),
-        Parameter("tc2_mg_per_c2", "mg/degC^2", 0.0, (-0.1, 0.1), "typical 1e-5..1e-3 (diagnosis-methods §2e)"),
+        Parameter("tc2_mg_per_c2", "mg/degC^2", 0.0, (-0.1, 0.1), "typical 1e-5..1e-3 (docs/diagnosis.md §2e)"),
         Parameter("tc3_mg_per_c3", "mg/degC^3", 0.0, (-0.01, 0.01),
-                  "cubic term (diagnosis-methods §2e; PX4 fits 3rd-order offset polynomials)"),
+                  "cubic term (docs/diagnosis.md §2e; PX4 fits 3rd-order offset polynomials)"),
         REFERENCE_C,
     )
 

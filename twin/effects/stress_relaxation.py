@@ -12,11 +12,11 @@ class StressRelaxation(Effect):
     name = "stress_relaxation"
     family = "hysteresis"
     description = ("bias = Σ k_i·(ΔT − LP_τi(ΔT)): follows temperature changes, relaxes over hours in dwells, "
-                   "hysteresis that persists at slow ramps (diagnosis-methods §2c)")
+                   "hysteresis that persists at slow ramps (docs/diagnosis.md §2c)")
     reads = ("die_c",)
     parameters = (
-        Parameter("k1_mg_per_c", "mg/degC", 0.1, (-10.0, 10.0), "0.1-few mg amplitude (§2c)"),
-        Parameter("tau_s", "s", 7200.0, (1800.0, 200000.0), "0.5-5 h (§2c); shorter is a thermal gradient",
+        Parameter("k1_mg_per_c", "mg/degC", 0.1, (-10.0, 10.0), "0.1-few mg amplitude (docs/diagnosis.md §2c)"),
+        Parameter("tau_s", "s", 7200.0, (1800.0, 200000.0), "0.5-5 h (docs/diagnosis.md §2c); shorter is a thermal gradient",
                   role="nonlinear",
                   grid=(1800.0, 3600.0, 7200.0, 14400.0, 28800.0)),
         Parameter("k2_mg_per_c", "mg/degC", 0.0, (-10.0, 10.0), "second Prony term", screen=False),

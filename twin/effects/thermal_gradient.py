@@ -8,11 +8,11 @@ from twin.effects.base import Contribution, Effect, Parameter, register
 class ThermalGradient(Effect):
     name = "thermal_gradient"
     family = "thermal_lag"
-    description = ("bias ∝ dT/dt seen through a node of time constant τ (diagnosis-methods §2i); "
+    description = ("bias ∝ dT/dt seen through a node of time constant τ (docs/diagnosis.md §2i); "
                    "aliased with thermal_lag unless a second probe or ramp-rate dependence separates them")
     reads = ("die_c",)
     parameters = (
-        Parameter("coef_mg_per_c_per_min", "mg/(degC/min)", 0.5, (-50.0, 50.0), "similar to lag during ramps (§2i)"),
+        Parameter("coef_mg_per_c_per_min", "mg/(degC/min)", 0.5, (-50.0, 50.0), "similar to lag during ramps (docs/diagnosis.md §2i)"),
         Parameter("tau_s", "s", 300.0, (5.0, 1500.0),
                   "conduction through package/board: seconds to ~20 min (physics-notes §1.6); longer is creep",
                   role="nonlinear", grid=(30.0, 100.0, 300.0, 1000.0)),

@@ -16,7 +16,7 @@ class ThermalLag(Effect):
                    "Generated data get their lag from the thermal chain, not from this effect.")
     reads = ("thermometer_c",)
     parameters = (
-        Parameter("tau_s", "s", 120.0, (1.0, 7200.0), "board in chamber air: 1-10 min (diagnosis-methods §2a)",
+        Parameter("tau_s", "s", 120.0, (1.0, 7200.0), "board in chamber air: 1-10 min (docs/diagnosis.md §2a)",
                   role="nonlinear", grid=(15.0, 30.0, 60.0, 120.0, 240.0, 480.0, 960.0, 1920.0)),
         Parameter("tau2_s", "s", 0.0, (0.0, 7200.0), "second node (package behind board); 0 = one node",
                   role="nonlinear", grid=(0.0,)),

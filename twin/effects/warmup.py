@@ -8,11 +8,11 @@ from twin.effects.base import Contribution, Effect, Parameter, register
 class Warmup(Effect):
     name = "warmup"
     family = "warmup"
-    description = "bias = A·exp(−t_on/τ) after each power-on, same sign every time (diagnosis-methods §2g)"
+    description = "bias = A·exp(−t_on/τ) after each power-on, same sign every time (docs/diagnosis.md §2g)"
     reads = ("time_since_power_on_s",)
     parameters = (
-        Parameter("amplitude_mg", "mg", 1.0, (-50.0, 50.0), "0.1-1 °C of board warming × tempco (§2g)"),
-        Parameter("tau_s", "s", 120.0, (1.0, 3600.0), "minutes (§2g)", role="nonlinear",
+        Parameter("amplitude_mg", "mg", 1.0, (-50.0, 50.0), "0.1-1 °C of board warming × tempco (docs/diagnosis.md §2g)"),
+        Parameter("tau_s", "s", 120.0, (1.0, 3600.0), "minutes (docs/diagnosis.md §2g)", role="nonlinear",
                   grid=(10.0, 30.0, 100.0, 300.0, 1000.0)),
     )
 

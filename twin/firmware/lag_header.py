@@ -1,7 +1,7 @@
 """A self-contained C header for the lag-aware ("twin") temperature compensation.
 
 Per axis a (the model :class:`twin.calibration.lagaware.LagAwareCompensator` fits, stored by
-``twin.calibration.workflow.method_json``)::
+``twin.calibration.document.method_json``)::
 
     correction[a] = Σ_{k≥1} c[a][k]·(T_die[a] − T_ref)^k + b[a]·(T − T_g[a])
     T_die[a] = lag(T, τ_die[a]),  T_g[a] = lag(T, τ_rate[a])
@@ -97,7 +97,7 @@ def lag_aware_c_header(params: dict, sample_rate_hz: float | None = None, *, pre
     ----------
     params : dict
         reference_c, coef_mg (3 lists, mg/°C^k ascending), tau_die_s (3), tau_rate_s (3, None where
-        an axis has no rate term), rate_mg_per_c (3): ``twin.calibration.workflow.method_json`` of a
+        an axis has no rate term), rate_mg_per_c (3): ``twin.calibration.document.method_json`` of a
         LagAwareCompensator.
     sample_rate_hz : float, optional
         Nominal rate [Hz]. Only for the fixed-rate convenience ``{prefix}_update_fixed`` (and the

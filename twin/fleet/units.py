@@ -104,7 +104,8 @@ def _compare(unit: dict, settings: dict, unit_dir: Path, rel: str) -> dict:
 
 def _calibrate(unit: dict, settings: dict, unit_dir: Path, rel: str) -> dict:
     from twin import __version__
-    from twin.calibration.workflow import calibrate_imu, calibration_json, file_provenance
+    from twin.calibration.document import calibration_json, file_provenance
+    from twin.calibration.workflow import calibrate_imu
     from twin.measurement import imu_logs_by_instance
 
     opt = settings["options"]

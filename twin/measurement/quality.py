@@ -11,17 +11,20 @@ iterated up from the quietest quarter) with physical floors (:class:`QualitySett
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
+from twin.io import strict_json
 from twin.measurement.core import Measurement, MeasurementError
 from twin.measurement.imu import AXES, ImuLog
+from twin.measurement.rowstats import (clipped_rows, dilate, frozen_rows, median_dt, runs, slow_median,
+                                       still_threshold, unit, window_stats)
 
-KINDS = ("static", "moving", "handling", "gap", "time_reset", "clipping", "temperature_frozen", "temperature_jump")
-STATIC, MOVING, HANDLING, GAP, RESET, CLIPPING, FROZEN, JUMP = range(len(KINDS))
+KINDS = ("static", "moving", "handling", "gap", "time_reset", "clipping", "temperature_frozen", "temperature_jump",
+         "other_attitude")
+STATIC, MOVING, HANDLING, GAP, RESET, CLIPPING, FROZEN, JUMP, OTHER_ATTITUDE = range(len(KINDS))
 FACE_LABELS = tuple(f"{s}{a}" for a in AXES for s in "+-")
 MOTION_KINDS = ("moving", "handling")
 
@@ -45,6 +48,16 @@ class QualitySettings:
     when it changes the temperature ≥ min_direction_c 1 °C. face_tol_deg 10° from an axis is that
     face. Handling: a move ≤ handling_max_s 60 s between static stretches tilting > handling_tilt_deg
     3°. sigma_mg: a fixed σ threshold [mg] instead of the derived one.
+
+    Derived thresholds never rise above sigma_ceiling_mg 50 mg (no MEMS accelerometer at rest is
+    that noisy over 1 s: a log that is mostly flight would otherwise call its vibration still),
+    norm_ceiling_g 0.3 g and gyro_ceiling_rad_s 0.3 rad/s (17 °/s). The gyro is compared with its
+    own mean over gyro_reference_s 60 s, not the whole log's: its bias drifts with temperature.
+    Attitude: two consecutive static stretches whose mean readings over attitude_edge_s 10 s at
+    the facing ends differ by more than attitude_step_mg 5 mg + attitude_mg_per_c 3.5 mg/°C of the
+    temperature change between them (the drift of three axes at 2× a typical 0.8 mg/°C, added in
+    quadrature) + 6 σ of the means sit at another attitude (a re-placed or crashed vehicle): a
+    2° re-placement is 35 mg on a cross axis, which an offset fit would take for drift.
     """
 
     window_s: float = 1.0
@@ -65,6 +78,13 @@ class QualitySettings:
     handling_max_s: float = 60.0
     handling_tilt_deg: float = 3.0
     sigma_mg: float | None = None
+    sigma_ceiling_mg: float = 50.0
+    norm_ceiling_g: float = 0.3
+    gyro_ceiling_rad_s: float = 0.3
+    gyro_reference_s: float = 60.0
+    attitude_step_mg: float = 5.0
+    attitude_mg_per_c: float = 3.5
+    attitude_edge_s: float = 10.0
 
 
 @dataclass(frozen=True)
@@ -83,7 +103,9 @@ class Stretch:
     """Rows ``start:stop`` of one kind (a gap or time reset holds no row: ``start == stop``).
 
     ``label`` and ``gravity_g`` (mean acceleration per logged axis [g]) are set for static
-    stretches; ``ramp`` is "heating", "cooling", "dwell" or "mixed" (None without rows).
+    stretches; ``ramp`` is "heating", "cooling", "dwell" or "mixed" (None without rows);
+    ``attitude`` numbers the static stretches' attitudes in time order (a new one at every face
+    change or re-placement, see :class:`QualitySettings`; None for other kinds and one axis).
     """
 
     start: int
@@ -97,6 +119,7 @@ class Stretch:
     temperature_min_c: float | None = None
     temperature_max_c: float | None = None
     ramp: str | None = None
+    attitude: int | None = None
 
     duration_s = property(lambda self: max(self.t1_s - self.t0_s, 0.0))
     span_c = property(lambda self: None if self.temperature_min_c is None else
@@ -157,6 +180,30 @@ class LogQuality:
         """Seconds excluded for ``kind`` (one of :data:`KINDS` but "static"), or for every reason."""
         return sum(s.duration_s for s in self.stretches if s.kind != "static" and kind in (None, s.kind))
 
+    def attitudes(self) -> dict[int, tuple[Stretch, ...]]:
+        """The static stretches by attitude number (three axes only)."""
+        out: dict[int, list[Stretch]] = {}
+        for st in self.static_stretches():
+            if st.attitude is not None:
+                out.setdefault(st.attitude, []).append(st)
+        return {k: tuple(v) for k, v in out.items()}
+
+    def keeping_attitudes(self, keep, reason: str) -> LogQuality:
+        """This result with the static stretches of attitudes not in ``keep`` excluded for ``reason``
+        (kind "other_attitude"); the thermal directions stay those of the assessment."""
+        drop = [st for st in self.static_stretches() if st.attitude not in keep]
+        if not drop:
+            return self
+        usable = self.usable_static.copy()
+        for st in drop:
+            usable[st.start:st.stop] = False
+        stretches = tuple(replace(st, kind="other_attitude", reason=f"attitude {st.attitude} ({st.label or 'tilted'}): "
+                                  f"{reason}") if st in drop else st for st in self.stretches)
+        kept = [st for st in stretches if st.kind == "static"]
+        return replace(self, usable_static=usable, stretches=stretches,
+                       static_min_c=min((st.temperature_min_c for st in kept), default=None),
+                       static_max_c=max((st.temperature_max_c for st in kept), default=None))
+
     def static_stretches(self) -> tuple[Stretch, ...]:
         return tuple(s for s in self.stretches if s.kind == "static")
 
@@ -168,7 +215,7 @@ class LogQuality:
     def summary(self) -> str:
         """One line: static seconds and span, what was excluded."""
         span = "no static rows" if self.static_min_c is None else f"{self.static_min_c:.1f}–{self.static_max_c:.1f} °C"
-        groups = {"motion": MOTION_KINDS, "gaps": ("gap",), "clipping": ("clipping",),
+        groups = {"motion": MOTION_KINDS, "gaps": ("gap",), "clipping": ("clipping",), "other attitudes": ("other_attitude",),
                   "temperature faults": ("temperature_frozen", "temperature_jump")}
         parts = [f"{sum(self.excluded_s(k) for k in kinds):.0f} s of {name}" for name, kinds in groups.items()
                  if any(s.kind in kinds for s in self.stretches)]
@@ -182,7 +229,7 @@ class LogQuality:
                "excluded_s": {k: self.excluded_s(k) for k in KINDS[1:]}, "static_min_c": self.static_min_c,
                "static_max_c": self.static_max_c, **asdict(self.directions),
                "stretches": [asdict(r) for r in self.table_rows()]}
-        return json.dumps(_finite(doc), allow_nan=False, ensure_ascii=False)
+        return json.dumps(strict_json(doc), allow_nan=False, ensure_ascii=False)
 
     def require_calibratable(self, min_static_s: float = 60.0, min_span_c: float = 10.0) -> None:
         """Raise :class:`LogQualityError` unless the usable static rows last ``min_static_s`` and
@@ -193,14 +240,6 @@ class LogQuality:
         short += [f"< {min_span_c:g} °C"] if span < min_span_c else []
         if short:
             raise LogQualityError(f"{self.summary()}: {', '.join(short)}")
-
-
-def _finite(x):
-    """``x`` with every non-finite float as None (strict JSON has no NaN)."""
-    if isinstance(x, dict):
-        return {k: _finite(v) for k, v in x.items()}
-    return [_finite(v) for v in x] if isinstance(x, (list, tuple)) else (
-        None if isinstance(x, float) and not math.isfinite(x) else x)
 
 
 def face_label(direction, tol_deg: float = 10.0) -> str:
@@ -225,7 +264,7 @@ def cluster_directions(directions, tol_deg: float = 10.0) -> DirectionClusters:
         else:
             groups.append([i])
     member_of = [next(c for c, g in enumerate(groups) if i in g) for i in range(len(dirs))]
-    means = tuple(tuple(float(v) for v in _unit(dirs[g].mean(axis=0))) for g in groups)
+    means = tuple(tuple(float(v) for v in unit(dirs[g].mean(axis=0))) for g in groups)
     return DirectionClusters(tuple(member_of), means, tuple(face_label(m, tol_deg) for m in means))
 
 
@@ -234,7 +273,7 @@ def ramp_rate_c_per_min(time_s, temperature_c, window_s: float = 60.0) -> np.nda
     over the difference of their mean times (noise-robust, no filter delay); 0 across time resets."""
     t, T = np.asarray(time_s, float), np.asarray(temperature_c, float)
     n = t.size
-    h = max(1, int(round(window_s / 2 / _median_dt(t))))
+    h = max(1, int(round(window_s / 2 / median_dt(t))))
     i = np.arange(n)
     lo, hi = np.maximum(i - h, 0), np.minimum(i + h, n - 1)
     cT, ct = np.r_[0.0, np.cumsum(T - T[0])], np.r_[0.0, np.cumsum(t - t[0])]
@@ -249,7 +288,7 @@ def thermal_directions(time_s, temperature_c, mask=None, settings: QualitySettin
     s = settings or QualitySettings()
     t = np.asarray(time_s, float)
     rate = ramp_rate_c_per_min(t, temperature_c, s.ramp_window_s)
-    dt_med = _median_dt(t)
+    dt_med = median_dt(t)
     step = np.clip(np.diff(t, append=t[-1:] + dt_med), 0.0, max(s.gap_min_s, s.gap_factor * dt_med))
     use = np.ones(t.size, bool) if mask is None else np.asarray(mask, bool)
     heat = float(np.sum((rate * step / 60)[use & (rate > s.ramp_c_per_min)]))
@@ -278,33 +317,37 @@ def _assess(time_s, temperature_c, accel_g, gyro_rad_s, where: str, s: QualitySe
     if n < 3 or a.shape[0] != n or T.shape != (n,) or not np.all(np.isfinite(t) & np.isfinite(T) & np.isfinite(a).all(1)):
         raise LogQualityError(f"{where}: {n} rows, temperature {T.shape}, accel {a.shape}; expected ≥ 3 finite rows "
                               "on one time base (readers drop non-finite rows)")
-    dt_med = _median_dt(t)
+    dt_med = median_dt(t)
     w, m = max(int(round(s.window_s / dt_med)), 3), int(round(s.margin_s / dt_med))
-    mean_a, sd = _window_stats(a, w)
+    mean_a, sd = window_stats(a, w)
     sigma = sd.max(axis=1) * 1e3
-    thr_sigma = s.sigma_mg if s.sigma_mg is not None else _still_threshold(sigma, s.sigma_floor_mg)
+    thr_sigma = s.sigma_mg if s.sigma_mg is not None else still_threshold(sigma, s.sigma_floor_mg,
+                                                                            s.sigma_ceiling_mg)
     moving = sigma > thr_sigma
     thr_norm = thr_gyro = None
     if a.shape[1] == 3:  # a sustained acceleration (a turn, a car) leaves σ small but |a| off its still level
         norm = np.linalg.norm(mean_a, axis=1)
         quiet = ~moving if (~moving).any() else np.ones(n, bool)
         dev = np.abs(norm - np.median(norm[quiet]))
-        thr_norm = _still_threshold(dev[quiet], s.norm_floor_g)
+        thr_norm = still_threshold(dev[quiet], s.norm_floor_g, s.norm_ceiling_g)
         moving |= dev > thr_norm
-    if gyro_rad_s is not None:  # |ω| about the median rate (a gyro's bias), averaged over the window
-        g = np.asarray(gyro_rad_s, float)
-        omega = _window_stats(np.linalg.norm(g - np.median(g, axis=0), axis=1)[:, None], w)[0][:, 0]
-        thr_gyro = _still_threshold(omega, s.gyro_floor_rad_s)
+    g = None if gyro_rad_s is None else np.asarray(gyro_rad_s, float)
+    finite = None if g is None else np.isfinite(g).all(axis=1)
+    if g is not None and finite.any():  # |ω| about the gyro's own slow mean (its bias drifts with T)
+        g = np.where(finite[:, None], g, np.median(g[finite], axis=0))  # rows without a gyro sample: no ω test
+        bias = slow_median(t, g, s.gyro_reference_s)
+        omega = window_stats(np.linalg.norm(g - bias, axis=1)[:, None], w)[0][:, 0]
+        thr_gyro = still_threshold(omega, s.gyro_floor_rad_s, s.gyro_ceiling_rad_s)
         moving |= omega > thr_gyro
     d = np.diff(t)
     gap, jump = d > max(s.gap_factor * dt_med, s.gap_min_s), np.zeros(n, bool)
     jump[1:] = (d > 0) & (np.abs(np.diff(T)) > s.jump_c * np.maximum(d, 1.0))  # > jump_c/s at steps over 1 s
     code = np.full(n, STATIC, np.int8)
-    for rows, kind in ((_dilate(moving, m), MOVING), (_frozen_rows(t, T, s.frozen_s), FROZEN),
-                       (_dilate(jump, m), JUMP), (_dilate(_clipped_rows(a, s.range_g), m), CLIPPING)):
+    for rows, kind in ((dilate(moving, m), MOVING), (frozen_rows(t, T, s.frozen_s), FROZEN),
+                       (dilate(jump, m), JUMP), (dilate(clipped_rows(a, s.range_g), m), CLIPPING)):
         code[rows] = kind  # later kinds win: clipping explains the motion around it
     breaks = np.flatnonzero(gap | (d <= 0)) + 1  # a stretch never spans a gap or a time reset
-    for i, j in _runs(code == STATIC, breaks):
+    for i, j in runs(code == STATIC, breaks):
         if t[j - 1] - t[i] < s.min_static_s:
             code[i:j] = MOVING
     handled = _mark_handling(code, t, mean_a, breaks, s) if a.shape[1] == 3 else {}
@@ -315,11 +358,11 @@ def _mark_handling(code, t, mean_a, breaks, s: QualitySettings) -> dict[int, str
     """Short moves between two static stretches that tilt the gravity direction become handling;
     returns their reasons by first row."""
     out = {}
-    for i, j in _runs(code == MOVING, breaks):
+    for i, j in runs(code == MOVING, breaks):
         if (i == 0 or j == code.size or code[i - 1] != STATIC or code[j] != STATIC or t[j] - t[i - 1] > s.handling_max_s
                 or np.any((breaks >= i) & (breaks <= j))):
             continue
-        before, after = _unit(mean_a[i - 1]), _unit(mean_a[j])
+        before, after = unit(mean_a[i - 1]), unit(mean_a[j])
         tilt = np.degrees(np.arccos(np.clip(np.min(mean_a[i:j] @ before / np.linalg.norm(mean_a[i:j], axis=1)), -1, 1)))
         if tilt > s.handling_tilt_deg:
             code[i:j] = HANDLING
@@ -330,15 +373,17 @@ def _mark_handling(code, t, mean_a, breaks, s: QualitySettings) -> dict[int, str
 
 def _quality(where, t, T, a, code, breaks, gap, handled, thresholds: Thresholds, s: QualitySettings) -> LogQuality:
     dt_med, rate = thresholds.sample_dt_s, ramp_rate_c_per_min(t, T, s.ramp_window_s)
-    runs = sorted((i, j, int(code[i])) for k in range(len(KINDS)) for i, j in _runs(code == k, breaks))
-    gravity = {i: a[i:j].mean(axis=0) for i, j, k in runs if k == STATIC}
-    labels = dict.fromkeys(gravity)
+    spans = sorted((i, j, int(code[i])) for k in range(len(KINDS)) for i, j in runs(code == k, breaks))
+    gravity = {i: a[i:j].mean(axis=0) for i, j, k in spans if k == STATIC}
+    labels, attitude = dict.fromkeys(gravity), dict.fromkeys(gravity)
     if a.shape[1] == 3 and gravity:
-        clusters = cluster_directions([_unit(g) for g in gravity.values()], s.face_tol_deg)
+        clusters = cluster_directions([unit(g) for g in gravity.values()], s.face_tol_deg)
         labels = {i: clusters.labels[c] for i, c in zip(gravity, clusters.member_of)}
+        attitude = _attitudes([(i, j) for i, j, k in spans if k == STATIC], labels, t, T, a, s)
     out = [Stretch(i, j, float(t[i]), float(t[j - 1] + dt_med), KINDS[k], handled.get(i) or _reason(k, t, T, i, j, s),
                    labels.get(i), tuple(float(v) for v in gravity[i]) if i in gravity else None,
-                   float(T[i:j].min()), float(T[i:j].max()), _ramp(rate[i:j], s.ramp_c_per_min)) for i, j, k in runs]
+                   float(T[i:j].min()), float(T[i:j].max()), _ramp(rate[i:j], s.ramp_c_per_min), attitude.get(i))
+           for i, j, k in spans]
     for b in breaks:  # the break sits before row b: a stretch of no rows between rows b − 1 and b
         out.append(Stretch(b, b, float(t[b - 1] + dt_med), float(t[b]), "gap",
                            f"no sample for {t[b] - t[b - 1]:.3g} s (median step {dt_med:.3g} s)") if gap[b - 1] else
@@ -350,13 +395,37 @@ def _quality(where, t, T, a, code, breaks, gap, handled, thresholds: Thresholds,
                       thermal_directions(t, T, usable, s), lo, hi)
 
 
+def _attitudes(static: list[tuple[int, int]], labels: dict, t, T, a, s: QualitySettings) -> dict[int, int]:
+    """Attitude number per static stretch (by first row), in time order: a new one where the face
+    changes, or where the mean readings at the facing ends of two consecutive stretches differ by
+    more than drift and noise allow (see :class:`QualitySettings`)."""
+    out, current = {}, 0
+    for n, (i, j) in enumerate(static):
+        if n:
+            (pi, pj) = static[n - 1]
+            before, after = _edge(t, pi, pj, s.attitude_edge_s, end=True), _edge(t, i, j, s.attitude_edge_s, end=False)
+            step_mg = float(np.linalg.norm(a[after].mean(0) - a[before].mean(0))) * 1e3
+            noise_mg = 1e3 * float(np.sqrt(np.sum(a[before].var(0) / before.size + a[after].var(0) / after.size)))
+            allowed = s.attitude_step_mg + s.attitude_mg_per_c * abs(float(T[after].mean() - T[before].mean())) + 6 * noise_mg
+            current += labels[i] != labels[pi] or step_mg > allowed
+        out[i] = current
+    return out
+
+
+def _edge(t, i: int, j: int, seconds: float, end: bool) -> np.ndarray:
+    """Row indices of the last (``end``) or first ``seconds`` of rows i:j (at least two rows)."""
+    if end:
+        return np.arange(min(int(np.searchsorted(t[i:j], t[j - 1] - seconds)) + i, j - 2), j).clip(i)
+    return np.arange(i, max(int(np.searchsorted(t[i:j], t[i] + seconds, side="right")) + i, i + 2)).clip(max=j - 1)
+
+
 def _reason(k: int, t, T, i: int, j: int, s: QualitySettings) -> str:
     """Why rows i:j are what they are (static rows: why they are used)."""
     return {STATIC: f"still ≥ {s.min_static_s:g} s, {s.margin_s:g} s cut beside each move",
             MOVING: f"moving, or still < {s.min_static_s:g} s between moves (with {s.margin_s:g} s settling margins)",
             CLIPPING: f"|a| at the log's flat maximum or beyond ±{s.range_g:g} g",
             FROZEN: f"temperature stuck at {T[i]:.2f} °C for {t[j - 1] - t[i]:.0f} s while the rest of the log changes",
-            JUMP: f"temperature steps > {s.jump_c:g} °C in one sample (max {np.abs(np.diff(T[i:j])).max(initial=0):.1f} °C)"}[k]
+            JUMP: f"temperature steps > {s.jump_c:g} °C in one sample (max {np.abs(np.diff(T[i:j])).max(initial=0):.3g} °C)"}[k]
 
 
 def _ramp(rate: np.ndarray, thr: float) -> str | None:
@@ -366,83 +435,3 @@ def _ramp(rate: np.ndarray, thr: float) -> str | None:
     if heat >= 0.25 and cool >= 0.25:
         return "mixed"
     return max((heat, "heating"), (cool, "cooling"), (1 - heat - cool, "dwell"))[1]
-
-
-def _median_dt(t: np.ndarray) -> float:
-    d = np.diff(t)
-    return float(np.median(d[d > 0])) if np.any(d > 0) else 1.0
-
-
-def _unit(v) -> np.ndarray:
-    v = np.asarray(v, float)
-    return v / max(float(np.linalg.norm(v)), 1e-12)
-
-
-def _window_stats(x: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray]:
-    """Centred moving mean and σ over ``w`` rows, per column."""
-    centre = np.median(x, axis=0)
-    x = x - centre  # small numbers in the cumulative sums of a long log
-    i = np.arange(x.shape[0])
-    lo, hi = np.clip(i - w // 2, 0, i.size), np.clip(i - w // 2 + w, 0, i.size)
-    c1, c2 = (np.vstack([np.zeros(x.shape[1]), np.cumsum(v, axis=0)]) for v in (x, x * x))
-    cnt = (hi - lo)[:, None]
-    mean = (c1[hi] - c1[lo]) / cnt
-    return mean + centre, np.sqrt(np.clip((c2[hi] - c2[lo]) / cnt - mean**2, 0, None))
-
-
-def _still_threshold(values: np.ndarray, floor: float, k: float = 6.0) -> float:
-    """median + k·MAD (as σ) of the still part, found by iterating from the quietest quarter
-    upwards until the rows below the threshold stop changing; never below ``floor``."""
-    v = values[np.isfinite(values)]
-    still, thr = v <= np.percentile(v, 25), float(floor)
-    for _ in range(20):
-        med = float(np.median(v[still]))
-        thr = max(float(floor), med + k * 1.4826 * float(np.median(np.abs(v[still] - med))))
-        nxt = v <= thr
-        if np.array_equal(nxt, still) or not nxt.any():
-            break
-        still = nxt
-    return thr
-
-
-def _dilate(mask: np.ndarray, k: int) -> np.ndarray:
-    """``mask`` widened by ``k`` rows on both sides."""
-    if k <= 0 or not mask.any():
-        return mask.copy()
-    c = np.r_[0, np.cumsum(mask)]
-    i = np.arange(mask.size)
-    return c[np.minimum(i + k + 1, mask.size)] - c[np.maximum(i - k, 0)] > 0
-
-
-def _runs(mask: np.ndarray, breaks=()) -> list[tuple[int, int]]:
-    """(start, stop) of every run of True, cut at the row indices ``breaks``."""
-    edge, cuts, out = np.diff(np.r_[0, mask.astype(np.int8), 0]), np.asarray(breaks, int), []
-    for i, j in zip(np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)):
-        bounds = np.r_[i, cuts[(cuts > i) & (cuts < j)], j]
-        out += [(int(p), int(q)) for p, q in zip(bounds[:-1], bounds[1:])]
-    return out
-
-
-def _frozen_rows(t: np.ndarray, T: np.ndarray, frozen_s: float) -> np.ndarray:
-    """Rows of an identical temperature for > ``frozen_s`` when the rest of the log changes on most
-    steps (a coarse or noise-free thermometer repeats itself in every dwell: nothing is frozen)."""
-    out = np.zeros(T.size, bool)
-    same = np.r_[False, np.diff(T) == 0]
-    for i, j in _runs(same):
-        if t[j - 1] - t[i - 1] > frozen_s:
-            out[i - 1:j] = True
-    rest = ~same[1:][~out[1:]]  # the steps outside the long runs: do they change?
-    if rest.size < 10 or np.mean(rest) < 0.5:
-        out[:] = False
-    return out
-
-
-def _clipped_rows(a: np.ndarray, range_g: float) -> np.ndarray:
-    """|a| beyond ``range_g``, or at the axis' log maximum (above 2 g: gravity alone never gets
-    there) for ≥ 3 consecutive samples: a saturated converter reads one value."""
-    mag = np.abs(a)
-    out = (mag >= range_g).any(axis=1)
-    for k in np.flatnonzero(mag.max(axis=0) > 2.0):
-        for i, j in _runs(mag[:, k] >= mag[:, k].max() * (1 - 1e-6)):
-            out[i:j] |= j - i >= 3
-    return out

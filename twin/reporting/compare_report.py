@@ -1,7 +1,7 @@
 """Self-contained HTML report of a compare run (plots embedded as PNG), and the ledger.
 
 matplotlib is imported here only, so ``import twin`` stays light. Plots follow
-diagnosis-methods §1 step 2: measured vs twin, residual with its noise band, residual vs
+docs/diagnosis.md §1 step 2: measured vs twin, residual with its noise band, residual vs
 temperature (heating/cooling), ±1 g half-sum/half-difference, dwell settling, ACF and Allan
 deviation against a noise-only reference, the ranking, and the error falling over the ledger.
 """

@@ -1,0 +1,96 @@
+"""Row statistics of a log, for the log-quality stage: moving windows, runs of a mask, robust
+thresholds, and the rows a saturated converter or a stuck thermometer gives."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def median_dt(t: np.ndarray) -> float:
+    d = np.diff(t)
+    return float(np.median(d[d > 0])) if np.any(d > 0) else 1.0
+
+
+def unit(v) -> np.ndarray:
+    v = np.asarray(v, float)
+    return v / max(float(np.linalg.norm(v)), 1e-12)
+
+
+def window_stats(x: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray]:
+    """Centred moving mean and σ over ``w`` rows, per column."""
+    centre = np.median(x, axis=0)
+    x = x - centre  # small numbers in the cumulative sums of a long log
+    i = np.arange(x.shape[0])
+    lo, hi = np.clip(i - w // 2, 0, i.size), np.clip(i - w // 2 + w, 0, i.size)
+    c1, c2 = (np.vstack([np.zeros(x.shape[1]), np.cumsum(v, axis=0)]) for v in (x, x * x))
+    cnt = (hi - lo)[:, None]
+    mean = (c1[hi] - c1[lo]) / cnt
+    return mean + centre, np.sqrt(np.clip((c2[hi] - c2[lo]) / cnt - mean**2, 0, None))
+
+
+def slow_median(t: np.ndarray, x: np.ndarray, block_s: float) -> np.ndarray:
+    """Per column, the medians of consecutive ``block_s`` blocks interpolated at every row: a slow
+    reference that a short motion inside a block does not move (a running mean would)."""
+    edges = np.searchsorted(t, np.arange(t[0], t[-1] + block_s, block_s))
+    blocks = [(i, j) for i, j in zip(edges[:-1], np.r_[edges[1:-1], t.size]) if j > i]
+    centres = np.array([t[i:j].mean() for i, j in blocks])
+    medians = np.array([np.median(x[i:j], axis=0) for i, j in blocks])
+    return np.column_stack([np.interp(t, centres, medians[:, c]) for c in range(x.shape[1])])
+
+
+def still_threshold(values: np.ndarray, floor: float, ceiling: float = np.inf, k: float = 6.0) -> float:
+    """median + k·MAD (as σ) of the still part, found by iterating from the quietest quarter
+    upwards until the rows below the threshold stop changing; within [``floor``, ``ceiling``]."""
+    v = values[np.isfinite(values)]
+    still, thr = v <= np.percentile(v, 25), float(floor)
+    for _ in range(20):
+        med = float(np.median(v[still]))
+        thr = max(float(floor), med + k * 1.4826 * float(np.median(np.abs(v[still] - med))))
+        nxt = v <= thr
+        if np.array_equal(nxt, still) or not nxt.any():
+            break
+        still = nxt
+    return min(thr, max(float(ceiling), float(floor)))
+
+
+def dilate(mask: np.ndarray, k: int) -> np.ndarray:
+    """``mask`` widened by ``k`` rows on both sides."""
+    if k <= 0 or not mask.any():
+        return mask.copy()
+    c = np.r_[0, np.cumsum(mask)]
+    i = np.arange(mask.size)
+    return c[np.minimum(i + k + 1, mask.size)] - c[np.maximum(i - k, 0)] > 0
+
+
+def runs(mask: np.ndarray, breaks=()) -> list[tuple[int, int]]:
+    """(start, stop) of every run of True, cut at the row indices ``breaks``."""
+    edge, cuts, out = np.diff(np.r_[0, mask.astype(np.int8), 0]), np.asarray(breaks, int), []
+    for i, j in zip(np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)):
+        bounds = np.r_[i, cuts[(cuts > i) & (cuts < j)], j]
+        out += [(int(p), int(q)) for p, q in zip(bounds[:-1], bounds[1:])]
+    return out
+
+
+def frozen_rows(t: np.ndarray, T: np.ndarray, frozen_s: float) -> np.ndarray:
+    """Rows of an identical temperature for > ``frozen_s`` when the rest of the log changes on most
+    steps (a coarse or noise-free thermometer repeats itself in every dwell: nothing is frozen)."""
+    out = np.zeros(T.size, bool)
+    same = np.r_[False, np.diff(T) == 0]
+    for i, j in runs(same):
+        if t[j - 1] - t[i - 1] > frozen_s:
+            out[i - 1:j] = True
+    rest = ~same[1:][~out[1:]]  # the steps outside the long runs: do they change?
+    if rest.size < 10 or np.mean(rest) < 0.5:
+        out[:] = False
+    return out
+
+
+def clipped_rows(a: np.ndarray, range_g: float) -> np.ndarray:
+    """|a| beyond ``range_g``, or at the axis' log maximum (above 2 g: gravity alone never gets
+    there) for ≥ 3 consecutive samples: a saturated converter reads one value."""
+    mag = np.abs(a)
+    out = (mag >= range_g).any(axis=1)
+    for k in np.flatnonzero(mag.max(axis=0) > 2.0):
+        for i, j in runs(mag[:, k] >= mag[:, k].max() * (1 - 1e-6)):
+            out[i:j] |= j - i >= 3
+    return out
