@@ -308,3 +308,24 @@ def test_calibrate_refuses_an_imu_instance_no_firmware_has(instance):
     with pytest.raises(CalibrationInputError, match=rf"^table\.csv instance {instance}: IMU instance {instance}; "
                                                     r"PX4 has TC_A0\.\.TC_A3 and ArduPilot INS_TCAL1\.\.INS_TCAL3"):
         calibrate_imu([log])
+
+
+def test_a_table_with_gyro_writes_the_gyro_for_px4_only_with_its_device_id(tmp_path):
+    imu = chamber_run(n=600, rate_hz=1.0, seed=8, gyro=True)[0]
+    table = tmp_path / "gyro.csv"
+    np.savetxt(table, np.column_stack([imu.time_us * 1e-6, imu.temperature_c, imu.accel_ms2 / G_MS2, imu.gyro_rad_s]),
+               delimiter=",", header="time_s,temp_c,ax_g,ay_g,az_g,wx,wy,wz", comments="", fmt="%.9g")
+    columns = _columns(tmp_path)
+    columns.write_text(columns.read_text() + "gx: wx\ngy: wy\ngz: wz\n")
+    cal = tmp_path / "cal.json"
+    assert run_cli("calibrate", str(table), "--columns", str(columns), "-o", str(cal)).returncode == 0
+    params = tmp_path / "tc.params"
+    accel_only = run_cli("firmware", str(cal), "--format", "px4", "--device-id", "7", "-o", str(params))
+    assert accel_only.returncode == 0, accel_only.stderr
+    assert "accel only: the gyro calibration has no device id" in accel_only.stdout
+    assert not any(k.startswith("TC_G") for k in parse_px4_params(params.read_text()).values)
+    both = run_cli("firmware", str(cal), "--format", "px4", "--device-id", "7", "--gyro-device-id", "8",
+                   "-o", str(params))
+    assert both.returncode == 0, both.stderr
+    values = parse_px4_params(params.read_text()).values
+    assert values["TC_G0_ID"] == 8 and values["TC_A0_ID"] == 7 and values["TC_G_ENABLE"] == 1

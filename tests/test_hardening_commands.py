@@ -394,3 +394,9 @@ def test_a_three_axis_log_in_another_unit_declared_as_g_is_refused(tmp_path, sca
     refused(tmp_path, ["calibrate", "log.csv", "--time-col", "time_s", "--temperature-col", "temperature_c",
                        "--x-col", "x", "--y-col", "y", "--z-col", "z", "--output-unit", "g", "-o", "c.json"],
             f"acceleration median |a| {scale:.3g} g is implausible")
+
+
+def test_a_method_of_another_firmware_is_refused_for_px4(tmp_path):
+    shutil.copy(CAL, tmp_path / "c.json")
+    refused(tmp_path, ["firmware", "c.json", "--format", "px4", "--method", "ardupilot", "-o", "o.params"],
+            "method 'ardupilot' is a ArduPilotAccelCal; --format px4 writes the px4 method only")

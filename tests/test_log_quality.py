@@ -252,3 +252,38 @@ def test_heating_versus_cooling_is_said_only_when_both_are_in_the_data(paper_pat
     assert d.has_heating and d.has_cooling and d.heating_c == pytest.approx(30, abs=1)
     _, result = compare_measurement(loaded, cycle, [])
     assert "changes sign between heating and cooling" in result["finding"], result["finding"]
+
+
+def test_a_log_that_is_mostly_flight_does_not_call_its_vibration_still():
+    """150 s on the ground, then 1050 s of 50–400 mg vibration: the quietest quarter is flight, and a
+    threshold derived from it alone ran away to ~1 g; the ceiling keeps it at 50 mg at most."""
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 1200.0, 0.02)
+    flying = t >= 150
+    amp = np.where(flying, 0.05 + 0.35 * rng.random(t.size), 0.0)
+    a = np.tile([0.0, 0.0, -1.0], (t.size, 1)) + rng.normal(0, 2e-3, (t.size, 3))
+    a += (amp * np.sin(2 * np.pi * 17.0 * t))[:, None] * [0.3, 0.3, 1.0]
+    q = assess_log(ImuLog(t, 25 + 10 * t / t[-1], a, instance=0))
+    assert q.thresholds.sigma_mg <= 50.0
+    assert q.usable_static[flying].mean() < 0.02
+    assert 140 < q.static_s < 150
+
+
+@pytest.mark.parametrize("drift_rad_s", [0.06, 0.2])
+def test_a_still_gyro_whose_bias_drifts_with_temperature_is_still(drift_rad_s):
+    """A still board whose gyro bias moves 0.06–0.2 rad/s over a warm-up: the bias is not motion."""
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, 2400.0, 0.1)
+    a = np.tile([0.0, 0.0, -1.0], (t.size, 1)) + rng.normal(0, 2e-3, (t.size, 3))
+    w = np.outer(t / t[-1], [drift_rad_s, -drift_rad_s / 2, drift_rad_s / 3]) + rng.normal(0, 3e-3, (t.size, 3))
+    q = assess_log(ImuLog(t, 20 + 25 * t / t[-1], a, instance=0, gyro_rad_s=w))
+    assert q.excluded_s() == 0 and q.static_min_c == pytest.approx(20, abs=0.01)
+
+
+def test_rows_without_a_gyro_sample_are_judged_by_the_accelerometer():
+    log, truth = flight_log(with_gyro=True)
+    gyro = log.gyro_rad_s.copy()
+    gyro[:3000] = np.nan  # the gyro topic started late
+    q = assess_log(ImuLog(log.time_s, log.temperature_c, log.accel_g, instance=3, gyro_rad_s=gyro))
+    ref = assess_log(log)
+    assert abs(q.static_s - ref.static_s) < 5
