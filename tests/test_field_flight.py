@@ -329,3 +329,21 @@ def test_a_table_with_gyro_writes_the_gyro_for_px4_only_with_its_device_id(tmp_p
     assert both.returncode == 0, both.stderr
     values = parse_px4_params(params.read_text()).values
     assert values["TC_G0_ID"] == 8 and values["TC_A0_ID"] == 7 and values["TC_G_ENABLE"] == 1
+
+
+def test_an_ardupilot_log_with_a_board_rotation_gives_no_ardupilot_file(tmp_path):
+    """AHRS_ORIENTATION rotates the logged IMU axes into the vehicle's; INS_TCALn corrects before that
+    rotation (AP_InertialSensor_Backend::_rotate_and_correct_accel), in the sensor's own axes."""
+    log = write_dataflash(tmp_path / "rotated.bin", chamber_run(n=400, rate_hz=1.0, seed=9)[:1],
+                          params={"AHRS_ORIENTATION": 2.0})  # ROTATION_YAW_90: x and y swap
+    cal = tmp_path / "cal.json"
+    done = run_cli("calibrate", str(log), "-o", str(cal))
+    assert done.returncode == 0, done.stderr
+    [imu] = strict(cal.read_text())["imus"]
+    assert imu["board_orientation"] == 2 and imu["recommended"]["ardupilot"] is None
+    assert any("AHRS_ORIENTATION is 2" in f for f in imu["flags"]["ardupilot"])
+    for extra in ([], ["--force"]):
+        out = tmp_path / "tc.parm"
+        refused = run_cli("firmware", str(cal), "--format", "ardupilot", *extra, "-o", str(out))
+        assert refused.returncode == 2 and not out.exists() and "AHRS_ORIENTATION" in refused.stderr
+    assert run_cli("firmware", str(cal), "--format", "px4", "-o", str(tmp_path / "tc.params")).returncode == 0

@@ -244,6 +244,11 @@ def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | N
     if fmt in ("px4", "ardupilot"):
         accel, gyros, notes, names = [], [], [], []
         for e in entries:
+            if fmt == "ardupilot" and e.get("board_orientation"):  # not even with --force: the axes would be wrong
+                raise CalibrationDocumentError(
+                    f"IMU instance {e['instance']}: the log's AHRS_ORIENTATION is {e['board_orientation']}: its IMU "
+                    "axes are the vehicle's, but INS_TCALn corrects in the sensor's own axes, so this file would "
+                    "correct the wrong axes; calibrate from a log recorded with AHRS_ORIENTATION 0")
             name, data = method_entry(e, method or fmt, fmt, force)
             cal = _firmware_cal(data, name)
             if not isinstance(cal, FIRMWARE_CAL[fmt]):

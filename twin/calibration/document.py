@@ -90,6 +90,7 @@ def calibration_json(imus: list[ImuCalibration], inputs: list[dict], version: st
             "recommended": c.recommended(),
             "flags": {name: list(f) for name, f in (c.flags or {}).items() if f},
             "notes": list(c.notes),
+            "board_orientation": c.board_orientation,
             "log_quality": [json.loads(q.to_json()) for q in c.quality],
             **({"orientations": c.orientations} if c.orientations else {}),
             **({"gyro": _gyro_json(c.gyro)} if c.gyro else {}),

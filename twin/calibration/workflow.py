@@ -95,6 +95,7 @@ class ImuCalibration:
     notes: tuple[str, ...] = ()
     gyro: GyroCalibration | None = None  # when the logs have this IMU's gyro
     quality: tuple[LogQuality, ...] = ()  # per log: which rows were still and used, what was excluded and why
+    board_orientation: int | None = None  # ArduPilot AHRS_ORIENTATION of the logs (IMU messages rotated by it)
 
     def heldout_rms_mg(self, method: str) -> np.ndarray:
         """Held-out RMS [mg] per axis of ``method``, pooled over folds and test branches."""
@@ -274,12 +275,19 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     limits = limits or limits_for_part()
     flags = {name: method_flags(name, method_json(name, est), correction_g, span, limits)
              for name, est in fitted.items()}
+    rotation = next((log.board_orientation for log in logs if log.board_orientation), None)
+    if rotation and "ardupilot" in flags:  # fitted in the vehicle's axes; the firmware corrects in the sensor's
+        why = (f"ardupilot: the log's AHRS_ORIENTATION is {rotation}, so its IMU axes are the vehicle's while "
+               "INS_TCALn corrects in the sensor's own axes; calibrate from a log with AHRS_ORIENTATION 0")
+        flags["ardupilot"].append(why)
+        if gyro is not None and "ardupilot" in gyro.flags:
+            gyro.flags["ardupilot"].append(why)
     if orientations:
         orientations["flags"] = tcso_flags(orientations, limits)
     notes = gyro_note + (() if "ardupilot" in models else (f"IMU instance {first.instance}: ArduPilot has INS_TCAL1..3 "
                                                            "for instances 0..2 only; no ArduPilot method",))
     return ImuCalibration(first.instance, device, tuple(log.source for log in logs), int(time_s.size), span, rate,
-                          protocol.name, validation, fitted, orientations, flags, notes, gyro, qualities)
+                          protocol.name, validation, fitted, orientations, flags, notes, gyro, qualities, rotation)
 
 
 def as_applied(models: dict) -> dict:

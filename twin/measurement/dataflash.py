@@ -240,8 +240,10 @@ def _imu_log(instance: int, rows: list, has_gyro: bool, tclr_rows: list, params:
     device_id, id_notes = device_id_from_param(params, _id_param(DEVICE_ID_PARAMS, instance), where)
     gyro_id, gyro_id_notes = device_id_from_param(params, _id_param(GYRO_DEVICE_ID_PARAMS, instance), where)
     gyro = np.ascontiguousarray(kept[:, 3:6]) if has_gyro else None
+    rotation = params.get("AHRS_ORIENTATION")
+    rotation = int(rotation) if _is_number(rotation) and float(rotation).is_integer() else None
     return ImuLog(t, temp, np.ascontiguousarray(kept[:, :3]), instance, device_id, str(path),
-                  notes + id_notes + gyro_id_notes, records, gyro, gyro_id)
+                  notes + id_notes + gyro_id_notes, records, gyro, gyro_id, rotation)
 
 
 def read_dataflash(path: str | Path) -> list[ImuLog]:

@@ -47,6 +47,10 @@ class ImuLog:
         gyro of this IMU (ArduPilot ``GyrX..Z``, PX4 ``sensor_gyro``, gyro columns of a table).
     gyro_device_id : int or None
         The gyro driver's device id (PX4 ``TC_Gn_ID``, ArduPilot ``INS_GYRn_ID``), when logged.
+    board_orientation : int or None
+        ArduPilot's ``AHRS_ORIENTATION`` when the log records it: its ``IMU`` messages are rotated
+        by it into the vehicle's axes, while ``INS_TCALn`` corrects in the sensor's own axes
+        (``_rotate_and_correct_accel`` corrects before it rotates).
     """
 
     time_s: np.ndarray
@@ -59,6 +63,7 @@ class ImuLog:
     records: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
     gyro_rad_s: np.ndarray | None = None
     gyro_device_id: int | None = None
+    board_orientation: int | None = None
 
     def __post_init__(self):
         n = self.time_s.shape[0]
