@@ -347,3 +347,19 @@ def test_an_ardupilot_log_with_a_board_rotation_gives_no_ardupilot_file(tmp_path
         refused = run_cli("firmware", str(cal), "--format", "ardupilot", *extra, "-o", str(out))
         assert refused.returncode == 2 and not out.exists() and "AHRS_ORIENTATION" in refused.stderr
     assert run_cli("firmware", str(cal), "--format", "px4", "-o", str(tmp_path / "tc.params")).returncode == 0
+
+
+def test_a_short_cooling_branch_trains_no_fold_and_says_why():
+    """25 → 45 °C, then 6 °C of cooling: fitted on the cooling rows, ArduPilot's method (≥ 10 °C of
+    range) refused and the whole calibration with it."""
+    from twin.calibration.workflow import calibrate_imu
+    from twin.measurement import ImuLog
+
+    rng = np.random.default_rng(1)
+    t = np.arange(0, 3600, 0.5)
+    peak = 25 + 20 * (1 - np.exp(-4))
+    temp = np.where(t < 2400, 25 + 20 * (1 - np.exp(-t / 600)), peak - 6 * (1 - np.exp(-(t - 2400) / 300)))
+    accel = np.column_stack([0.001 * (temp - 30), -0.0005 * (temp - 30), -1 + 0.0008 * (temp - 30)])
+    c = calibrate_imu([ImuLog(t, temp, accel + rng.normal(0, 0.002, accel.shape), 0, 1234, "bench.csv")])
+    assert [s.fold for s in c.validation.scores if s.test == "overall"] == ["heating→cooling"] * 6
+    assert any("cooling→heating not run: the cooling rows span 5.9 °C < 10 °C" in n for n in c.validation.notes)

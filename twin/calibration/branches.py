@@ -188,8 +188,11 @@ def _fold(name, temperature_c, train, tests, note="") -> Fold:
 
 
 def protocol_heating_vs_cooling(time_s, temperature_c, run=None, reverse: bool = True, n_blocks: int = 6,
-                                **split_kwargs) -> Protocol:
+                                min_train_span_c: float = 10.0, **split_kwargs) -> Protocol:
     """Folds "fit on heating, test on each cooling branch" (and the reverse).
+
+    A direction whose rows span less than ``min_train_span_c`` trains no fold (the firmware fits
+    need 10 °C); the fold left says so in its note, and with neither the blocks below are used.
 
     Several runs give leave-one-run-out folds instead (each held-out run tested per branch).
     A log with only one direction falls back to interleaved contiguous blocks (every other block
@@ -209,12 +212,18 @@ def protocol_heating_vs_cooling(time_s, temperature_c, run=None, reverse: bool =
         return Protocol("leave one run out", folds, tuple(branches))
     idx = {kind: np.concatenate([b.index for b in branches if b.kind == kind] or [np.zeros(0, int)])
            for kind in ("heating", "cooling")}
-    if idx["heating"].size and idx["cooling"].size:
+    span = {kind: float(np.ptp(T[i])) if i.size else 0.0 for kind, i in idx.items()}
+    # a fold trains every method, the firmware ones included: ArduPilot's fit refuses < 10 °C of range
+    trainable = {kind: span[kind] >= min_train_span_c for kind in idx}
+    if idx["heating"].size and idx["cooling"].size and (trainable["heating"] or trainable["cooling"] and reverse):
+        skipped = [f"{a}→{b} not run: the {a} rows span {span[a]:.1f} °C < {min_train_span_c:g} °C"
+                   for a, b in (("heating", "cooling"), ("cooling", "heating")) if not trainable[a]]
+        note = "; ".join(skipped)
         folds = [_fold("heating→cooling", T, idx["heating"],
-                       [(lab, b.index) for b, lab in labelled if b.kind == "cooling"])]
-        if reverse:
+                       [(lab, b.index) for b, lab in labelled if b.kind == "cooling"], note)] if trainable["heating"] else []
+        if reverse and trainable["cooling"]:
             folds.append(_fold("cooling→heating", T, idx["cooling"],
-                               [(lab, b.index) for b, lab in labelled if b.kind == "heating"]))
+                               [(lab, b.index) for b, lab in labelled if b.kind == "heating"], note))
         return Protocol("fit on heating, test on cooling", tuple(folds), tuple(branches))
     pool = np.concatenate([idx["heating"], idx["cooling"]]) if (idx["heating"].size + idx["cooling"].size) else \
         np.arange(T.size)
@@ -222,7 +231,10 @@ def protocol_heating_vs_cooling(time_s, temperature_c, run=None, reverse: bool =
         raise TwinError(f"{pool.size} samples are too few for {2 * n_blocks} interleaved blocks")
     blocks = np.array_split(pool, 2 * n_blocks)
     train = np.concatenate(blocks[0::2])
-    note = ("only one thermal direction in the log: interleaved blocks (every other block held out); "
+    first = ("only one thermal direction in the log" if not (idx["heating"].size and idx["cooling"].size) else
+             f"no thermal direction spans {min_train_span_c:g} °C alone (heating {span['heating']:.1f} °C, cooling "
+             f"{span['cooling']:.1f} °C)")
+    note = (f"{first}: interleaved blocks (every other block held out); "
             "test temperatures lie inside the fitted range, so rate-dependent errors go unseen")
     fold = _fold("interleaved blocks", T, train, [(f"block {2 * k + 1}", b) for k, b in enumerate(blocks[1::2])],
                  note)
