@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -400,3 +401,19 @@ def test_a_method_of_another_firmware_is_refused_for_px4(tmp_path):
     shutil.copy(CAL, tmp_path / "c.json")
     refused(tmp_path, ["firmware", "c.json", "--format", "px4", "--method", "ardupilot", "-o", "o.params"],
             "method 'ardupilot' is a ArduPilotAccelCal; --format px4 writes the px4 method only")
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs")
+def test_an_output_that_is_a_device_fifo_or_symlink_loop_is_refused_never_replaced(tmp_path):
+    (tmp_path / "log.csv").write_text(LOG_ROWS)
+    os.mkfifo(tmp_path / "fifo")
+    (tmp_path / "loop1").symlink_to("loop2")
+    (tmp_path / "loop2").symlink_to("loop1")
+    args = ["compare", "ok_tiny.yaml", "log.csv"]
+    shutil.copy(MODEL / "ok_tiny.yaml", tmp_path / "ok_tiny.yaml")
+    refused(tmp_path, [*args, "--json", "fifo"], "fifo: is a FIFO; expected a regular file or a new path")
+    refused(tmp_path, [*args, "--json", "loop1"], "loop1: cannot be resolved")
+    with contextlib.chdir(tmp_path):
+        code, _, err = run_main([*args, "--json", "/dev/null"])
+    assert code == 2 and "/dev/null: is a character device" in err
+    assert Path("/dev/null").is_char_device()

@@ -15,11 +15,31 @@ def umask_mode() -> int:
     return 0o666 & ~mask
 
 
+def not_a_regular_file(path: Path) -> str | None:
+    """What ``path`` is when it exists and is not a regular file a writer may replace (a device,
+    a FIFO, a socket, a folder), else None. Renaming over /dev/null as root would replace it."""
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError as exc:  # a symlink loop, a name too long: not a path to write either
+        return f"not usable ({exc.strerror or exc})"
+    kinds = ((stat.S_ISDIR, "a directory"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+             (stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"))
+    return next((what for test, what in kinds if test(mode)), None if stat.S_ISREG(mode) else "not a regular file")
+
+
 @contextmanager
 def atomic_path(path: Path, suffix: str = ".tmp"):
     """Yield a temporary path beside ``path``; on success it is renamed over ``path`` (with the
-    permissions ``open()`` would give), on any error or interrupt it is removed."""
+    permissions ``open()`` would give), on any error or interrupt it is removed. A ``path`` that
+    exists and is not a regular file is refused (``IsADirectoryError``/``OSError``), never replaced."""
     path = Path(path)
+    kind = not_a_regular_file(path)
+    if kind is not None:
+        raise OSError(f"{path}: is {kind}; expected a regular file or a new path")
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
     os.close(fd)

@@ -17,6 +17,7 @@ from typing import Annotated, Optional
 import typer
 
 from twin.errors import TwinError
+from twin.io import not_a_regular_file
 
 app = typer.Typer(
     name="twin",
@@ -57,24 +58,35 @@ def emit_json(result: dict, dest: str | None) -> None:
 
 def check_outputs(inputs, outputs) -> None:
     """Refuse an output that is one of the inputs or a directory (missing folders are created)."""
-    resolved = {Path(p).resolve() for p in inputs if p is not None}
+    resolved = {_resolved(Path(p)) for p in inputs if p is not None}
     for out in outputs:
         if out is None or str(out) == "-":
             continue
         out = Path(out)
-        if out.resolve() in resolved:
+        if _resolved(out) in resolved:
             raise TwinError(f"{out}: the output would overwrite an input; choose another path")
-        if out.is_dir():
+        kind = not_a_regular_file(out)
+        if kind == "a directory":
             raise TwinError(f"{out}: is a directory; expected a file path")
+        if kind is not None:
+            raise TwinError(f"{out}: is {kind}; expected a regular file or a new path (it is never replaced)")
         blocked = next((p for p in out.parents if p.exists() and not p.is_dir()), None)
         if blocked is not None:  # found now, before anything is written
             raise TwinError(f"{out}: {blocked} is a file, not a folder; expected a path in a folder")
         _check_writable(out)
-    named = [Path(p).resolve() for p in outputs if p is not None and str(p) != "-"]
+    named = [_resolved(Path(p)) for p in outputs if p is not None and str(p) != "-"]
     twice = next((p for i, p in enumerate(named) if p in named[:i]), None)
     if twice is not None:  # the second write would replace the first
         raise TwinError(f"{twice}: two outputs name one file (e.g. --json and -o name the same file); "
                         "choose a path for each")
+
+
+def _resolved(path: Path) -> Path:
+    """``path.resolve()``, or a one-line refusal for a path that cannot be resolved (a symlink loop)."""
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError) as exc:
+        raise TwinError(f"{path}: cannot be resolved ({exc}); expected a path that is not a symlink loop") from None
 
 
 def _check_writable(out: Path) -> None:
