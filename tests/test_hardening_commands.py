@@ -417,3 +417,15 @@ def test_an_output_that_is_a_device_fifo_or_symlink_loop_is_refused_never_replac
         code, _, err = run_main([*args, "--json", "/dev/null"])
     assert code == 2 and "/dev/null: is a character device" in err
     assert Path("/dev/null").is_char_device()
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("[" * 100_000 + "]" * 100_000, "nested too deep to read"),
+    ('{"schema": ' + "9" * 5000 + "}", "holds a value JSON readers refuse"),
+    ('{"schema": ', "is not JSON"),
+])
+def test_a_calibration_document_json_cannot_read_is_one_line(tmp_path, text, fragment):
+    (tmp_path / "c.json").write_text(text)
+    (tmp_path / "log.csv").write_text(LOG_ROWS)
+    refused(tmp_path, ["firmware", "c.json", "--format", "px4", "-o", "o.params"], fragment)
+    refused(tmp_path, ["apply", "c.json", "log.csv", "-o", "o.csv"], fragment)

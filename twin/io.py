@@ -111,6 +111,22 @@ def read_text(path: str | Path, what: str, error: type[Exception]) -> str:
         raise error(f"{p}: cannot read {what}: {exc.strerror or exc}") from None
 
 
+def read_json(path: str | Path, what: str, error: type[Exception]):
+    """The JSON value in ``path``; malformed JSON, nesting too deep for the parser, or an integer
+    beyond Python's 4300-digit limit raise ``error`` in one line naming the file."""
+    import json
+
+    text = read_text(path, what, error)
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise error(f"{path}:{exc.lineno}: {what} is not JSON ({exc.msg})") from None
+    except RecursionError:
+        raise error(f"{path}: {what} is nested too deep to read; expected the document a twin command wrote") from None
+    except ValueError as exc:  # an integer of more than 4300 digits
+        raise error(f"{path}: {what} holds a value JSON readers refuse ({' '.join(str(exc).split())[:120]})") from None
+
+
 def strict_json(value):
     """``value`` as plain JSON data: NumPy scalars and arrays as Python numbers and lists, tuples as
     lists, and every NaN or infinity as ``None`` (JSON has no NaN; a reader that meets a bare

@@ -30,7 +30,7 @@ from twin.firmware import (
     checked_ardupilot_parm_text,
     checked_px4_params_text,
 )
-from twin.io import atomic_write_text, read_text, strict_json
+from twin.io import atomic_write_text, read_json, strict_json
 
 FORMATS = ("px4", "ardupilot", "json", "c")
 FIRMWARE_CAL = {"px4": Px4AccelCal, "ardupilot": ArduPilotAccelCal}  # what each parameter file holds
@@ -50,10 +50,7 @@ AFTER_LOADING = {
 def read_calibration(path: str | Path) -> dict:
     """The document ``twin calibrate -o`` wrote, checked for its schema."""
     path = Path(path)
-    try:
-        doc = json.loads(read_text(path, "calibration document", CalibrationDocumentError))
-    except json.JSONDecodeError as exc:
-        raise CalibrationDocumentError(f"{path}:{exc.lineno}: not JSON ({exc.msg})") from None
+    doc = read_json(path, "calibration document", CalibrationDocumentError)
     if not isinstance(doc, dict) or doc.get("schema") != SCHEMA or doc.get("schema_version") != SCHEMA_VERSION:
         raise CalibrationDocumentError(f"{path}: not a '{SCHEMA}' document of schema_version {SCHEMA_VERSION}")
     if not doc.get("imus"):

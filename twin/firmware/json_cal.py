@@ -32,7 +32,7 @@ from twin.firmware.common import AXES, CalibrationFileError, ClampedPolynomial, 
 from twin.firmware.polynomial import HeldoutPolynomialFit
 from twin.firmware.px4 import Px4AccelCal, Px4GyroCal
 from twin.firmware.px4_params import check_px4_cal
-from twin.io import atomic_write_text
+from twin.io import atomic_write_text, read_json
 
 SCHEMA_VERSION = 1
 KIND = "accel_temperature_calibration"
@@ -168,11 +168,6 @@ class JsonCalibration:
 def read_json_cal(path) -> JsonCalibration:
     """Read a calibration JSON written by :func:`write_json_cal`."""
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise CalibrationFileError(f"{path}: cannot read ({exc.strerror})") from None
-    except json.JSONDecodeError as exc:
-        raise CalibrationFileError(f"{path}:{exc.lineno}: not JSON ({exc.msg})") from None
+    doc = read_json(path, "calibration JSON", CalibrationFileError)
     cal = cal_from_dict(doc, str(path))
     return JsonCalibration(cal, str(doc["method"]), int(doc["schema_version"]), dict(doc.get("provenance") or {}))
