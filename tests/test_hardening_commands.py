@@ -429,3 +429,17 @@ def test_a_calibration_document_json_cannot_read_is_one_line(tmp_path, text, fra
     (tmp_path / "log.csv").write_text(LOG_ROWS)
     refused(tmp_path, ["firmware", "c.json", "--format", "px4", "-o", "o.params"], fragment)
     refused(tmp_path, ["apply", "c.json", "log.csv", "-o", "o.csv"], fragment)
+
+
+def test_a_ulog_whose_format_contains_itself_is_one_line(tmp_path):
+    """pyulog expands nested formats recursively: a format holding itself recursed without end."""
+    import struct
+
+    from logfixtures import ULOG_MAGIC, _ulog_msg
+
+    header = ULOG_MAGIC + bytes([1]) + struct.pack("<Q", 0) + _ulog_msg("B", bytes(40))
+    body = (_ulog_msg("F", b"sensor_accel:sensor_accel loop;uint64_t timestamp;")
+            + _ulog_msg("A", struct.pack("<BH", 0, 1) + b"sensor_accel")
+            + _ulog_msg("D", struct.pack("<H", 1) + bytes(64)))
+    (tmp_path / "recursive.ulg").write_bytes(header + body)
+    refused(tmp_path, ["calibrate", "recursive.ulg", "-o", "c.json"], "recursive.ulg: not a readable ULog file")

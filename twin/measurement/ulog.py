@@ -44,6 +44,10 @@ def _parse(path: Path, topics: list[str] | None):
     except (ULogException, ValueError, KeyError, IndexError, struct.error, UnicodeDecodeError, OSError,
             OverflowError) as exc:
         raise MeasurementError(f"{path}: not a readable ULog file ({type(exc).__name__}: {exc})") from None
+    except Exception as exc:  # noqa: BLE001  whatever else a malformed file makes the parser raise (a format
+        # that refers to itself recurses without end): still the file's fault, said in one line
+        detail = " ".join(str(exc).split())[:160]
+        raise MeasurementError(f"{path}: not a readable ULog file ({type(exc).__name__}: {detail})") from None
 
 
 def _missing_topic_error(path: Path) -> MeasurementError:
