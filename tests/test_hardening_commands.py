@@ -15,6 +15,7 @@ import os
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import ROOT
 from conftest import run_in_process as run_main
@@ -443,3 +444,14 @@ def test_a_ulog_whose_format_contains_itself_is_one_line(tmp_path):
             + _ulog_msg("D", struct.pack("<H", 1) + bytes(64)))
     (tmp_path / "recursive.ulg").write_bytes(header + body)
     refused(tmp_path, ["calibrate", "recursive.ulg", "-o", "c.json"], "recursive.ulg: not a readable ULog file")
+
+
+def test_a_parquet_log_with_a_repeated_column_name_is_one_line(tmp_path):
+    pa = pytest.importorskip("pyarrow")
+    pq = pytest.importorskip("pyarrow.parquet")
+    n = 400
+    cols = [np.arange(n, dtype=float), np.linspace(0, 40, n), np.full(n, 0.01), np.full(n, 0.02), np.full(n, -1.0),
+            np.full(n, -1.0)]
+    pq.write_table(pa.table(cols, names=["t", "temp", "x", "y", "z", "z"]), tmp_path / "dup.parquet")
+    refused(tmp_path, ["calibrate", "dup.parquet", "--time-col", "t", "--temperature-col", "temp", "--x-col", "x",
+                       "--y-col", "y", "--z-col", "z", "-o", "c.json"], "column 'z' appears 2 times in the schema")

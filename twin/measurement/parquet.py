@@ -65,6 +65,9 @@ def read_columns(path: Path, cmap: ColumnMap, roles, skip_bad_rows: bool):
     chosen = {role: _resolve(names, key, path, role, required) for role, key, required in roles}
     chosen = {role: name for role, name in chosen.items() if name is not None}
     for role, name in chosen.items():
+        if names.count(name) > 1:  # pyarrow looks a name up only when it is unique
+            raise MeasurementError(f"{path}: {role} column {name!r} appears {names.count(name)} times in the "
+                                   "schema; expected unique column names (rename the duplicates)")
         kind = f.schema_arrow.field(name).type
         if not (pa.types.is_integer(kind) or pa.types.is_floating(kind) or pa.types.is_boolean(kind)):
             raise MeasurementError(f"{path}: {role} column {name!r} has type {kind}; expected numbers")
