@@ -455,3 +455,20 @@ def test_a_parquet_log_with_a_repeated_column_name_is_one_line(tmp_path):
     pq.write_table(pa.table(cols, names=["t", "temp", "x", "y", "z", "z"]), tmp_path / "dup.parquet")
     refused(tmp_path, ["calibrate", "dup.parquet", "--time-col", "t", "--temperature-col", "temp", "--x-col", "x",
                        "--y-col", "y", "--z-col", "z", "-o", "c.json"], "column 'z' appears 2 times in the schema")
+
+
+@pytest.mark.parametrize("case, fragment", [
+    ("bool_time", "time_s has shape (30,) and type bool"),
+    ("fractional_run", "test/run_index outside 0..")])
+def test_hdf5_logs_with_boolean_times_or_fractional_runs_are_one_line(tmp_path, case, fragment):
+    h5py = pytest.importorskip("h5py")
+    n = 30
+    with h5py.File(tmp_path / "log.h5", "w") as f:
+        f["time_s"] = np.arange(n) % 2 == 0 if case == "bool_time" else np.arange(n, dtype=float) * 10
+        f["temperature/thermometer_c"] = np.linspace(-20, 10, n)
+        f["output/output_g"] = np.ones(n)
+        f["test/applied_g"] = np.ones(n)
+        f["test/run_index"] = np.full(n, 0.5) if case == "fractional_run" else np.zeros(n)
+        f["test/power_on"] = np.zeros(n, bool)
+    shutil.copy(MODEL / "ok_tiny.yaml", tmp_path / "ok_tiny.yaml")
+    refused(tmp_path, ["compare", "ok_tiny.yaml", "log.h5", "--json", "o.json"], fragment)

@@ -31,7 +31,7 @@ def logged_arrays(path: Path, names: list[str]) -> dict[str, np.ndarray]:
                 d = f[k]
                 if not isinstance(d, h5py.Dataset):
                     raise MeasurementError(f"{path}: {k} is a group; expected a 1-D numeric dataset")
-                if d.ndim != 1 or d.dtype.kind not in "fiub":
+                if d.ndim != 1 or d.dtype.kind not in ("fiu" if k == "time_s" else "fiub"):
                     raise MeasurementError(f"{path}: {k} has shape {d.shape} and type {d.dtype}; "
                                            "expected a 1-D numeric dataset")
                 lengths[k] = d.shape[0]
@@ -41,8 +41,8 @@ def logged_arrays(path: Path, names: list[str]) -> dict[str, np.ndarray]:
             if not lengths[names[0]]:
                 raise MeasurementError(f"{path}: the dataset holds no samples; expected a simulated run")
             return {k: f[k][()] for k in names}
-    except (OSError, KeyError, TypeError, ValueError) as exc:
-        raise MeasurementError(f"{path}: not a readable HDF5 file ({' '.join(str(exc).split())})") from None
+    except (OSError, KeyError, TypeError, ValueError, RuntimeError, RecursionError) as exc:  # RuntimeError: a link loop
+        raise MeasurementError(f"{path}: not a readable HDF5 file ({' '.join(str(exc).split())[:160]})") from None
 
 
 def read_dataset_blind(path: str | Path) -> Measurement:
@@ -50,8 +50,8 @@ def read_dataset_blind(path: str | Path) -> Measurement:
     path = Path(path)
     arrays = logged_arrays(path, LOGGED)
     run = arrays["test/run_index"]
-    if not (np.isfinite(run).all() and run.min() >= 0 and run.max() <= RUN_MAX):
-        raise MeasurementError(f"{path}: test/run_index outside 0..{RUN_MAX}; expected run numbers")
+    if not (np.isfinite(run).all() and run.min() >= 0 and run.max() <= RUN_MAX and np.all(run == np.round(run))):
+        raise MeasurementError(f"{path}: test/run_index outside 0..{RUN_MAX} or not whole; expected run numbers")
     m = Measurement(arrays["time_s"].astype(float), arrays["temperature/thermometer_c"].astype(float),
                     arrays["output/output_g"].astype(float), arrays["test/applied_g"].astype(float),
                     arrays["test/run_index"].astype(np.int16), arrays["test/power_on"].astype(bool), True, [str(path)])
