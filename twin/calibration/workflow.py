@@ -277,11 +277,11 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
              for name, est in fitted.items()}
     rotation = next((log.board_orientation for log in logs if log.board_orientation), None)
     if rotation and "ardupilot" in flags:  # fitted in the vehicle's axes; the firmware corrects in the sensor's
-        why = (f"ardupilot: the log's AHRS_ORIENTATION is {rotation}, so its IMU axes are the vehicle's while "
-               "INS_TCALn corrects in the sensor's own axes; calibrate from a log with AHRS_ORIENTATION 0")
-        flags["ardupilot"].append(why)
+        frame = (f"ardupilot: the log's AHRS_ORIENTATION is {rotation}, so its IMU axes are the vehicle's while "
+                 "INS_TCALn corrects in the sensor's own axes; calibrate from a log with AHRS_ORIENTATION 0")
+        flags["ardupilot"].append(frame)
         if gyro is not None and "ardupilot" in gyro.flags:
-            gyro.flags["ardupilot"].append(why)
+            gyro.flags["ardupilot"].append(frame)
     if orientations:
         orientations["flags"] = tcso_flags(orientations, limits)
     notes = gyro_note + (() if "ardupilot" in models else (f"IMU instance {first.instance}: ArduPilot has INS_TCAL1..3 "
