@@ -18,6 +18,7 @@ import numpy as np
 from twin.calibration.correction import CalibrationDocumentError, correction_g
 from twin.calibration.correction import firmware_cal as _firmware_cal
 from twin.calibration.document import SCHEMA, SCHEMA_VERSION
+from twin.calibration.plausibility import limits_for_part, method_flags
 from twin.calibration.workflow import MAX_DEVICE_ID, PX4_INSTANCES
 from twin.errors import TwinError
 from twin.firmware import (
@@ -106,8 +107,20 @@ def check_document(doc: dict, path: str) -> None:
         if not (isinstance(val, dict) and isinstance(val.get("heldout_rms_mg"), dict)):
             raise CalibrationDocumentError(f"{at}.validation: expected the held-out RMS per method")
         temperature_c, time_s = np.linspace(span[0], span[1], 16), np.arange(16.0)
+        if inst in [i.get("instance") for i in imus[:k]]:
+            raise CalibrationDocumentError(f"{at}.instance: IMU instance {inst} appears twice; expected one entry each")
+        for name, data in _gyro_methods(e, at).items():  # checked as the firmware holds them
+            _check_slot(data, inst, e, f"{at}.gyro.methods.{name}")
+            try:
+                cal_from_dict(data["firmware"], f"{at}.gyro.methods.{name}")
+            except (FirmwareValueError, KeyError, TypeError) as exc:
+                raise CalibrationDocumentError(f"{at}.gyro.methods.{name}: {' '.join(str(exc).split())[:200]}") from None
         for name, data in methods.items():
+            _check_slot(data, inst, e, f"{at}.methods.{name}")
             level = data.get("level_g", [0.0, 0.0, 0.0])
+            if any(data.get(key) is not None and not isinstance(data.get(key), list) for key in ("tau_die_s", "tau_rate_s")):
+                raise CalibrationDocumentError(f"{at}.methods.{name}: tau_die_s / tau_rate_s must be lists (one per "
+                                               "axis) or null; expected what twin calibrate wrote")
             taus = [t for key in ("tau_die_s", "tau_rate_s") for t in (data.get(key) or [])]
             if not all(t is None or _finite(t) and 0 <= t <= 1e7 for t in taus):
                 raise CalibrationDocumentError(f"{at}.methods.{name}: time constants {taus}; expected each null or a "
@@ -116,8 +129,8 @@ def check_document(doc: dict, path: str) -> None:
                 with warnings.catch_warnings(), np.errstate(all="ignore"):
                     warnings.simplefilter("ignore")
                     corr = correction_g(data, time_s, temperature_c)
-            except FirmwareValueError:
-                raise  # already one line naming the parameter and what the firmware holds
+            except FirmwareValueError as exc:  # names the parameter and what the firmware holds: say where too
+                raise CalibrationDocumentError(f"{at}.methods.{name}: {exc}") from None
             except (KeyError, TypeError, ValueError, IndexError, TwinError) as exc:
                 raise CalibrationDocumentError(f"{at}.methods.{name}: malformed ({type(exc).__name__}: "
                                                f"{' '.join(str(exc).split())[:160]}); expected what twin calibrate wrote") from None
@@ -125,6 +138,50 @@ def check_document(doc: dict, path: str) -> None:
                     isinstance(level, list) and len(level) == 3 and all(_finite(v) for v in level)):
                 raise CalibrationDocumentError(f"{at}.methods.{name}: not finite over {span[0]:g}..{span[1]:g} °C; "
                                                "expected finite coefficients, levels and time constants")
+
+
+def _gyro_methods(entry: dict, at: str) -> dict:
+    gyro = entry.get("gyro")
+    if gyro is None:
+        return {}
+    if not (isinstance(gyro, dict) and isinstance(gyro.get("methods"), dict)
+            and all(isinstance(m, dict) for m in gyro["methods"].values())):
+        raise CalibrationDocumentError(f"{at}.gyro: expected the gyro's fitted methods")
+    return gyro["methods"]
+
+
+def _numbers(node, where: str) -> None:
+    """Every number in a firmware block a real number: JSON ``true`` or ``"0.002"`` is not one."""
+    if isinstance(node, dict):
+        for key, value in node.items():
+            if key not in ("units", "reference", "method") and key != "kind":
+                _numbers(value, f"{where}.{key}")
+    elif isinstance(node, list):
+        for i, value in enumerate(node):
+            _numbers(value, f"{where}[{i}]")
+    elif isinstance(node, (bool, str)):
+        raise CalibrationDocumentError(f"{where}: got {node!r}, expected a number")
+
+
+def _check_slot(data: dict, instance: int, entry: dict, where: str) -> None:
+    """A firmware method's own instance and device id agree with its IMU entry's (an edit of one
+    would write IMU 0's calibration into another slot, or pair it with another sensor)."""
+    if data.get("kind") != "firmware":
+        return
+    block = data.get("firmware")
+    if not isinstance(block, dict):
+        raise CalibrationDocumentError(f"{where}.firmware: expected the firmware calibration")
+    _numbers({k: block.get(k) for k in ("temperature_c", "coefficients", "method_parameters")}, f"{where}.firmware")
+    params = block.get("method_parameters") or {}
+    slot = instance + (1 if block.get("method") == "ardupilot" else 0)
+    if params.get("instance") != slot:
+        raise CalibrationDocumentError(f"{where}.firmware.method_parameters.instance: got {params.get('instance')!r}, "
+                                       f"expected {slot} for IMU instance {instance}")
+    gyro = ".gyro.methods." in where
+    logged = (entry.get("gyro") or {}).get("device_id") if gyro else entry.get("device_id")
+    if block.get("method") == "px4" and params.get("device_id") not in (0, logged):
+        raise CalibrationDocumentError(f"{where}.firmware.method_parameters.device_id: got {params.get('device_id')!r}, "
+                                       f"expected the IMU entry's {'gyro ' if gyro else ''}device_id {logged!r}")
 
 
 def imu_entry(doc: dict, instance: int | None, device_id: int | None = None, source: str = "calibration") -> dict:
@@ -168,7 +225,13 @@ def method_entry(entry: dict, method: str | None, target: str = "c", force: bool
         raise CalibrationDocumentError(f"{where}: method {name!r} is flagged: {flags[name][0]}"
                                        f"{f' (and {len(flags[name]) - 1} more)' if len(flags[name]) > 1 else ''}; "
                                        "pass --force to export it anyway")
-    return name, entry["methods"][name]
+    data = entry["methods"][name]
+    # checked again as loaded: a document edited after twin calibrate carries no flag for what it now holds
+    again = [] if force else method_flags(name, data, correction_g, tuple(entry["temperature_span_c"]), limits_for_part())
+    if again:
+        raise CalibrationDocumentError(f"{where}: method {name!r} fails the plausibility checks as loaded: {again[0]}; "
+                                       "pass --force to export it anyway")
+    return name, data
 
 
 @dataclass(frozen=True)

@@ -82,7 +82,9 @@ class Profile:
 
 def refine(objective, start: np.ndarray, bounds: list[tuple[float, float]]) -> np.ndarray:
     """Bounded quasi-Newton polish of a grid optimum (τ in units of 10 s for the step sizes)."""
-    scaled = [(lo / 10.0, hi / 10.0) for lo, hi in bounds]
+    # a log sampled more coarsely than the τ bound puts the least resolvable τ (twice the step) above
+    # it: the interval collapses to that τ instead of inverting (L-BFGS-B refuses lower > upper)
+    scaled = [(lo / 10.0, max(lo, hi) / 10.0) for lo, hi in bounds]
     res = minimize(lambda v: objective(v * 10.0), np.asarray(start, float) / 10.0, method="L-BFGS-B",
                    bounds=scaled, options={"eps": 1e-4, "maxiter": 200})
     best, start = res.x * 10.0, np.asarray(start, float)

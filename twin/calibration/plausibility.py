@@ -105,6 +105,11 @@ def method_flags(name: str, data: dict, correction_g, span_c: tuple[float, float
     temperature_c, curve_mg = static_curve_mg(correction_g, data, span_c)
     if not np.all(np.isfinite(curve_mg)):
         return flags + [f"{name}: correction not finite over {span_c[0]:.1f}..{span_c[1]:.1f} °C"]
+    peak_g = np.max(np.abs(curve_mg), axis=0) * 1e-3
+    for axis, g in zip(AXES, peak_g):
+        if g > MAX_LEVEL_G:
+            flags.append(f"{name} {axis}: correction up to {g:.3g} g over {span_c[0]:.1f}..{span_c[1]:.1f} °C; a still "
+                         "accelerometer reads at most about 1 g")
     slope = np.max(np.abs(np.gradient(curve_mg, temperature_c, axis=0)), axis=0)
     for axis, s in zip(AXES, slope):
         if s > limits.tcoff_mg_per_c:

@@ -44,6 +44,7 @@ MAX_DEVICE_ID = 2**32 - 1  # device ids are uint32 in both firmwares
 GYRO_MAX_BIAS_RAD_S = np.radians(10.0)
 GYRO_MAX_SLOPE_RAD_S_PER_C = np.radians(0.5)
 MULTI_POSITION_FACES = 3  # this many faces in one log make a six-position or tumble test
+MIN_MEDIAN_NORM_G = 0.25  # below this median |a| the log holds no gravity: not raw accelerometer readings
 MIN_STATIC_S = 60.0  # a calibration needs at least a minute of still rows (and MIN_TEMPERATURE_RANGE_C of span)
 
 
@@ -123,6 +124,14 @@ def _check_log(log: ImuLog) -> None:
                                     "live IMU temperature")
     if not np.all(np.isfinite(log.accel_g)):
         raise CalibrationInputError(f"{where}: acceleration has NaN or infinite samples")
+    median_c = float(np.median(t))
+    if median_c > 150 or t.min() < -80 or t.max() > 200:  # every reader, not only tables: a die is in -80..200 °C
+        raise CalibrationInputError(f"{where}: temperature {t.min():.4g}..{t.max():.4g} (median {median_c:.4g}) is "
+                                    "not an IMU's in °C (a median above 150 looks like kelvin); expected -80..200 °C")
+    norm_g = float(np.median(np.linalg.norm(log.accel_g, axis=1)))
+    if norm_g < MIN_MEDIAN_NORM_G:  # at rest or in flight an accelerometer reads gravity
+        raise CalibrationInputError(f"{where}: acceleration median |a| {norm_g:.3g} g; expected about 1 g (gravity): "
+                                    "a log with gravity removed, or an accelerometer that reads nothing")
     if len(log) < MIN_SAMPLES:  # too short to assess; otherwise the span is checked on the still rows
         raise CalibrationInputError(usable_for_calibration(log)[1])
 
@@ -284,7 +293,8 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
             gyro.flags["ardupilot"].append(frame)
     if orientations:
         orientations["flags"] = tcso_flags(orientations, limits)
-    notes = gyro_note + (() if "ardupilot" in models else (f"IMU instance {first.instance}: ArduPilot has INS_TCAL1..3 "
+    read = tuple(dict.fromkeys(n for log in logs for n in log.notes))  # what the readers dropped or noticed
+    notes = read + gyro_note + (() if "ardupilot" in models else (f"IMU instance {first.instance}: ArduPilot has INS_TCAL1..3 "
                                                            "for instances 0..2 only; no ArduPilot method",))
     return ImuCalibration(first.instance, device, tuple(log.source for log in logs), int(time_s.size), span, rate,
                           protocol.name, validation, fitted, orientations, flags, notes, gyro, qualities, rotation)

@@ -131,14 +131,14 @@ def cal_from_dict(doc: Mapping, source: str = "<json>"):
         coeffs = tuple(tuple(float(v) for v in doc["coefficients"][a]["values"]) for a in AXES
                        if a in doc["coefficients"])
         gyro = doc["kind"] == KIND_GYRO
-        if method == "px4" and gyro:
-            return Px4GyroCal(int(extra["instance"]), int(extra["device_id"]), float(temp["tmin"]),
-                              float(temp["tmax"]), float(temp["tref"]), coeffs)
         if method == "px4":
+            args = (int(extra["instance"]), int(extra["device_id"]), float(temp["tmin"]), float(temp["tmax"]),
+                    float(temp["tref"]), coeffs)
             median = extra.get("median_m_s2")
-            return Px4AccelCal(int(extra["instance"]), int(extra["device_id"]), float(temp["tmin"]),
-                               float(temp["tmax"]), float(temp["tref"]), coeffs,
-                               None if median is None else tuple(float(m) for m in median))
+            cal = Px4GyroCal(*args) if gyro else Px4AccelCal(
+                *args, None if median is None else tuple(float(m) for m in median))
+            check_px4_cal(cal, require_device_id=False)  # what PX4 can hold, before anything is computed from it
+            return cal
         if method == "ardupilot":
             cls = ArduPilotGyroCal if gyro else ArduPilotAccelCal
             cal = cls(int(extra["instance"]), float(temp["tmin"]), float(temp["tmax"]), coeffs,

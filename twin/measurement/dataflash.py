@@ -230,6 +230,8 @@ def _imu_log(instance: int, rows: list, has_gyro: bool, tclr_rows: list, params:
     where = f"{path} IMU instance {instance}"
     fields = ("time", "AccX", "AccY", "AccZ", "temperature", *GYRO_FIELDS, "time scale")
     table = _float_table(rows, fields, "IMU", path)
+    if has_gyro and not np.any(table[:, 5:8]):  # a board without that gyro logs GyrX..Z as 0: no gyro, not a
+        has_gyro = False  # still one (its calibration would write zero INS_TCALn_GYR* over the vehicle's)
     time_s = table[:, 0] * table[:, 8]
     accel_g = table[:, 1:4] / STANDARD_GRAVITY
     # gyro rides along with the accelerometer columns so the rows dropped are the same
