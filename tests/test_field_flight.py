@@ -363,3 +363,71 @@ def test_a_short_cooling_branch_trains_no_fold_and_says_why():
     c = calibrate_imu([ImuLog(t, temp, accel + rng.normal(0, 0.002, accel.shape), 0, 1234, "bench.csv")])
     assert [s.fold for s in c.validation.scores if s.test == "overall"] == ["heating→cooling"] * 6
     assert any("cooling→heating not run: the cooling rows span 5.9 °C < 10 °C" in n for n in c.validation.notes)
+
+
+def _chamber_log(instance=0, **changes):
+    from twin.measurement import ImuLog
+
+    imu = chamber_run(n=600, rate_hz=0.5, seed=10)[0]
+    fields = dict(time_s=imu.time_us * 1e-6, temperature_c=imu.temperature_c.astype(float),
+                  accel_g=imu.accel_ms2 / G_MS2, instance=instance, source="t.csv")
+    return ImuLog(**{**fields, **changes})
+
+
+@pytest.mark.parametrize("change, fragment", [
+    ({"temperature_c": "kelvin"}, r"\(median 3\d\d\.\d\) is not an IMU's in °C \(a median above 150 looks like kelvin\)"),
+    ({"accel_g": "zero"}, r"acceleration median \|a\| 0 g; expected about 1 g"),
+])
+def test_calibrate_refuses_temperatures_not_in_celsius_and_logs_without_gravity(change, fragment):
+    from twin.calibration.workflow import CalibrationInputError, calibrate_imu
+
+    log = _chamber_log()
+    values = {"kelvin": log.temperature_c + 273.15, "zero": np.zeros_like(log.accel_g)}
+    key = next(iter(change))
+    with pytest.raises(CalibrationInputError, match=fragment):
+        calibrate_imu([_chamber_log(**{key: values[change[key]]})])
+
+
+def test_a_method_no_fold_can_fit_is_flagged_as_not_validated():
+    """20 → 30.5 °C: the whole log passes the 10 °C gate, the interleaved training blocks do not."""
+    from twin.calibration.workflow import calibrate_imu
+
+    log = _chamber_log()
+    t = log.time_s
+    c = calibrate_imu([_chamber_log(temperature_c=20.0 + 10.5 * (t - t[0]) / np.ptp(t))])
+    assert "ardupilot" not in c.validation.methods and c.recommended()["ardupilot"] is None
+    assert any("not validated" in f for f in c.flags["ardupilot"])
+    assert c.recommended()["px4"] == "px4"
+
+
+def test_a_slowly_turning_board_is_not_still():
+    from twin.measurement.quality import assess_log
+
+    t = np.arange(0.0, 2000.0, 1.0)
+    angle = np.radians(0.05 * t)  # 100° in 2000 s: σ and |a| stay steady
+    a = np.column_stack([0 * t, np.sin(angle), -np.cos(angle)]) + np.random.default_rng(2).normal(0, 1e-3, (t.size, 3))
+    q = assess_log(_chamber_log(time_s=t, temperature_c=5 + 0.03 * t, accel_g=a))
+    assert q.static_s == 0 and "turning: the gravity direction moves" in q.stretches[0].reason
+
+
+def test_apply_refuses_an_applied_g_the_log_contradicts(tmp_path):
+    log = write_dataflash(tmp_path / "level.bin", chamber_run(n=400, rate_hz=1.0, seed=12)[:1])
+    cal = tmp_path / "cal.json"
+    assert run_cli("calibrate", str(log), "-o", str(cal)).returncode == 0
+    out = tmp_path / "applied.csv"
+    refused = run_cli("apply", str(cal), str(log), "--applied-g", "0,0,1", "-o", str(out))
+    assert refused.returncode == 2 and not out.exists()
+    assert re.search(r"--applied-g gives z = \+1 g, but the compensated log reads -1\.0\d g", refused.stderr)
+    assert run_cli("apply", str(cal), str(log), "--applied-g", "0,0,-1", "-o", str(out)).returncode == 0
+
+
+def test_a_dataflash_gyro_logged_as_zeros_is_no_gyro(tmp_path):
+    imus = chamber_run(n=400, rate_hz=1.0, seed=13, gyro=True)[:1]
+    zeros = [ImuTruth(**{**vars(imus[0]), "gyro_rad_s": np.zeros_like(imus[0].gyro_rad_s)})]
+    log = write_dataflash(tmp_path / "zeros.bin", zeros)
+    cal = tmp_path / "cal.json"
+    assert run_cli("calibrate", str(log), "-o", str(cal)).returncode == 0
+    assert "gyro" not in strict(cal.read_text())["imus"][0]
+    parm = tmp_path / "tc.parm"
+    assert run_cli("firmware", str(cal), "--format", "ardupilot", "-o", str(parm)).returncode == 0
+    assert "GYR" not in parm.read_text()

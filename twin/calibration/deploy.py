@@ -304,6 +304,9 @@ def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | N
     if fmt in ("px4", "ardupilot"):
         accel, gyros, notes, names = [], [], [], []
         for e in entries:
+            if fmt == "ardupilot" and e["instance"] > 2 and instance is None:  # INS_TCAL1..3 only
+                notes.append(f"IMU {e['instance']}: not written: ArduPilot has INS_TCAL1..3 for IMU instances 0..2")
+                continue
             if fmt == "ardupilot" and e.get("board_orientation"):  # not even with --force: the axes would be wrong
                 raise CalibrationDocumentError(
                     f"IMU instance {e['instance']}: the log's AHRS_ORIENTATION is {e['board_orientation']}: its IMU "
@@ -329,6 +332,12 @@ def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | N
             if gyro is not None:
                 gyros.append(gyro)
             notes.append(note or f"IMU {e['instance']}: " + ("accel and gyro" if gyro is not None else NO_GYRO[fmt]))
+        ids = [c.device_id for c in accel] if fmt == "px4" else []
+        twice = next((d for k, d in enumerate(ids) if d in ids[:k]), None)
+        if twice is not None:  # set_sensor_id takes the first slot with the id: one would be dead
+            raise CalibrationDocumentError(f"IMU instances {[e['instance'] for e, c in zip(entries, accel) if c.device_id == twice]} "
+                                           f"share device_id {twice}; PX4 matches a sensor to the first TC_An_ID that "
+                                           "equals its id, so expected one id per IMU (--imu writes one)")
         text = (checked_px4_params_text(accel, gyro=gyros or None) if fmt == "px4"
                 else checked_ardupilot_parm_text(accel, gyro=gyros or None))
         atomic_write_text(path, text)

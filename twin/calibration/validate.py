@@ -16,6 +16,7 @@ from twin.calibration.branches import Protocol
 from twin.calibration.lag import make_X
 from twin.calibration.models import AXES
 from twin.errors import TwinError
+from twin.firmware import CalibrationRangeError
 
 
 @dataclass(frozen=True)
@@ -115,7 +116,7 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
     y = np.asarray(accel_g, float)
     if y.shape != (X.shape[0], 3):
         raise TwinError(f"accel_g must be (n, 3) with n = {X.shape[0]}; got {y.shape}")
-    scores, floors, times = [], [], {}
+    scores, floors, times, skipped = [], [], {}, []
     for fold in protocol.folds:
         mask = np.zeros(X.shape[0], bool)
         mask[fold.train] = True
@@ -123,7 +124,11 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
         extrap = np.concatenate([t.extrapolated for t in fold.tests]) if fold.tests else np.zeros(0, bool)
         for name, est in models.items():
             start = time.perf_counter()
-            fitted = est.clone().fit(X, y, mask=mask)
+            try:
+                fitted = est.clone().fit(X, y, mask=mask)
+            except CalibrationRangeError as exc:  # e.g. ArduPilot's 10 °C on a fold's narrower training rows
+                skipped.append(f"note ({fold.name}): {name} not fitted on this fold: {exc}")
+                continue
             times[(fold.name, name)] = time.perf_counter() - start
             resid = y - fitted.predict(X)
             for t in fold.tests:
@@ -139,7 +144,7 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
     dummy = ValidationResult(tuple(scores), tuple(floor), ("",) * 3, times)
     pooled = np.array([dummy.rms_mg(m) for m in dummy.methods])
     best = tuple(dummy.methods[i] for i in np.argmin(pooled, axis=0))
-    notes = tuple(f"note ({f.name}): {f.note}" for f in protocol.folds if f.note)
+    notes = tuple(f"note ({f.name}): {f.note}" for f in protocol.folds if f.note) + tuple(skipped)
     return ValidationResult(tuple(scores), tuple(float(v) for v in floor), best, times, notes)
 
 

@@ -8,6 +8,7 @@ the validation table, and provenance (input hashes, software version, validation
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -28,6 +29,7 @@ from twin.calibration.orientation import cluster_orientations, fit_offset_scale,
 from twin.calibration.plausibility import PlausibilityLimits, limits_for_part, method_flags, tcso_flags
 from twin.calibration.validate import ValidationResult, validate
 from twin.errors import TwinError
+from twin.firmware import CalibrationRangeError
 from twin.measurement import ImuLog, usable_for_calibration
 from twin.measurement.imu import MIN_SAMPLES, MIN_TEMPERATURE_RANGE_C
 from twin.measurement.quality import LogQuality, LogQualityError, QualitySettings, assess_log
@@ -267,7 +269,12 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     protocol = protocol_heating_vs_cooling(time_s, temperature_c, run=run_or_none, reverse=reverse)
     validation = validate({**models, **as_applied(models)}, time_s, temperature_c, accel_g, protocol, run=run_or_none)
     X = make_X(time_s, temperature_c, run_or_none)
-    fitted = {name: est.clone().fit(X, accel_g) for name, est in models.items()}
+    fitted, unfit = {}, {}
+    for name, est in models.items():
+        try:
+            fitted[name] = est.clone().fit(X, accel_g)
+        except CalibrationRangeError as exc:  # ArduPilot's 10 °C after its filter: the others still stand
+            unfit[name] = str(exc)
     gyro, gyro_rad_s, gyro_note = None, None, ()
     if any(log.has_gyro for log in logs):
         gyro_rad_s = np.concatenate([log.gyro_rad_s for log in logs])[rows] if all(log.has_gyro for log in logs) else None
@@ -284,6 +291,9 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     limits = limits or limits_for_part()
     flags = {name: method_flags(name, method_json(name, est), correction_g, span, limits)
              for name, est in fitted.items()}
+    for name in fitted:  # a method no fold could fit is not validated, so never recommended
+        if name not in validation.methods:
+            flags[name].append(f"{name}: not validated: no fold's training rows could fit it (see the notes)")
     rotation = next((log.board_orientation for log in logs if log.board_orientation), None)
     if rotation and "ardupilot" in flags:  # fitted in the vehicle's axes; the firmware corrects in the sensor's
         frame = (f"ardupilot: the log's AHRS_ORIENTATION is {rotation}, so its IMU axes are the vehicle's while "
@@ -294,6 +304,7 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     if orientations:
         orientations["flags"] = tcso_flags(orientations, limits)
     read = tuple(dict.fromkeys(n for log in logs for n in log.notes))  # what the readers dropped or noticed
+    read += tuple(f"IMU instance {first.instance}: {name} not fitted: {why}" for name, why in unfit.items())
     notes = read + gyro_note + (() if "ardupilot" in models else (f"IMU instance {first.instance}: ArduPilot has INS_TCAL1..3 "
                                                            "for instances 0..2 only; no ArduPilot method",))
     return ImuCalibration(first.instance, device, tuple(log.source for log in logs), int(time_s.size), span, rate,
@@ -386,10 +397,11 @@ def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[li
     for instance, logs in sorted(per_instance.items()):
         try:
             done.append(calibrate_imu(logs, **options))
-        except CalibrationInputError as exc:
+        except TwinError as exc:  # any refusal of this IMU's logs; the others are still calibrated
             if len(per_instance) == 1:
                 raise
-            skipped[instance] = str(exc)
+            name = Path(logs[0].source).name
+            skipped[instance] = str(exc) if name and name in str(exc) else f"{name} instance {instance}: {exc}"
     if not done:
         raise CalibrationInputError("no IMU can be calibrated: " + "; ".join(skipped.values()))
     return done, skipped

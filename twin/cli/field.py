@@ -185,8 +185,8 @@ def firmware(
 
     with guard(inputs=[calibration], outputs=_outputs(output, json_out)):
         _distinct(output, json_out)
-        if sample_rate_hz is not None and not 0 < sample_rate_hz < 1e6:
-            raise TwinError(f"--sample-rate-hz must be in (0, 1e6) Hz, got {sample_rate_hz}")
+        if sample_rate_hz is not None and not 1e-3 <= sample_rate_hz < 1e6:
+            raise TwinError(f"--sample-rate-hz must be in [0.001, 1e6) Hz, got {sample_rate_hz}")
         doc = read_calibration(calibration)
         written = export_calibration(doc, fmt, output, method=method, instance=imu, sample_rate_hz=sample_rate_hz,
                                      device_id=device_id, gyro_device_id=gyro_device_id, force=force)
@@ -217,6 +217,7 @@ def apply(
     import numpy as np
 
     from twin.calibration.deploy import correction_g, imu_entry, method_entry, read_calibration
+    from twin.diagnosis.axes import APPLIED_TOLERANCE_G
     from twin.io import atomic_write_text
     from twin.measurement import ColumnMap, read_imu_logs
 
@@ -242,7 +243,13 @@ def apply(
                 truth = []
             if len(truth) != 3 or not np.all(np.isfinite(truth)):
                 raise TwinError(f"--applied-g expects 'gx,gy,gz' in g, got {applied_g!r}")
-            res = corrected - np.asarray(truth) - np.median(corrected - np.asarray(truth), axis=0)
+            offset = np.median(corrected - np.asarray(truth), axis=0)
+            bad = [(a, t, t + o) for a, t, o in zip("xyz", truth, offset) if abs(o) > APPLIED_TOLERANCE_G]
+            if bad:  # the summary is about the given g: one the log contradicts would summarise nothing
+                a, t, read = bad[0]
+                raise TwinError(f"{log}: --applied-g gives {a} = {t:+g} g, but the compensated log reads {read:+.2f} g "
+                                f"there (median; tolerance {APPLIED_TOLERANCE_G:g} g); give the orientation it was in")
+            res = corrected - np.asarray(truth) - offset
             raw = imu_log.accel_g - np.median(imu_log.accel_g, axis=0)
             result["residual_rms_mg"] = dict(zip("xyz", map(float, np.sqrt(np.mean(res ** 2, axis=0)) * 1e3)))
             result["raw_rms_mg"] = dict(zip("xyz", map(float, np.sqrt(np.mean(raw ** 2, axis=0)) * 1e3)))

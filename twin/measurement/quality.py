@@ -19,8 +19,8 @@ import numpy as np
 from twin.io import strict_json
 from twin.measurement.core import Measurement, MeasurementError
 from twin.measurement.imu import AXES, ImuLog
-from twin.measurement.rowstats import (clipped_rows, dilate, frozen_rows, median_dt, runs, slow_median,
-                                       still_threshold, unit, window_stats)
+from twin.measurement.rowstats import (clipped_rows, dilate, frozen_rows, median_dt, ramp_rate_c_per_min, runs,
+                                       slow_median, still_threshold, unit, window_stats)
 
 KINDS = ("static", "moving", "handling", "gap", "time_reset", "clipping", "temperature_frozen", "temperature_jump",
          "other_attitude")
@@ -57,7 +57,9 @@ class QualitySettings:
     the facing ends differ by more than attitude_step_mg 5 mg + attitude_mg_per_c 3.5 mg/°C of the
     temperature change between them (the drift of three axes at 2× a typical 0.8 mg/°C, added in
     quadrature) + 6 σ of the means sit at another attitude (a re-placed or crashed vehicle): a
-    2° re-placement is 35 mg on a cross axis, which an offset fit would take for drift.
+    2° re-placement is 35 mg on a cross axis, which an offset fit would take for drift. A still
+    stretch whose direction turns by more than turn_deg 10° is moving (a slow rotation keeps σ and
+    |a| steady); 10° is 175 mg on a cross axis, beyond the drift of any plausible part over its range.
     """
 
     window_s: float = 1.0
@@ -85,6 +87,7 @@ class QualitySettings:
     attitude_step_mg: float = 5.0
     attitude_mg_per_c: float = 3.5
     attitude_edge_s: float = 10.0
+    turn_deg: float = 10.0
 
 
 @dataclass(frozen=True)
@@ -268,20 +271,6 @@ def cluster_directions(directions, tol_deg: float = 10.0) -> DirectionClusters:
     return DirectionClusters(tuple(member_of), means, tuple(face_label(m, tol_deg) for m in means))
 
 
-def ramp_rate_c_per_min(time_s, temperature_c, window_s: float = 60.0) -> np.ndarray:
-    """Smoothed dT/dt per row [°C/min]: the mean of the next half window minus the mean of the last,
-    over the difference of their mean times (noise-robust, no filter delay); 0 across time resets."""
-    t, T = np.asarray(time_s, float), np.asarray(temperature_c, float)
-    n = t.size
-    h = max(1, int(round(window_s / 2 / median_dt(t))))
-    i = np.arange(n)
-    lo, hi = np.maximum(i - h, 0), np.minimum(i + h, n - 1)
-    cT, ct = np.r_[0.0, np.cumsum(T - T[0])], np.r_[0.0, np.cumsum(t - t[0])]
-    mean = lambda c, a, b: (c[b + 1] - c[a]) / (b + 1 - a)  # noqa: E731  mean of rows a..b inclusive
-    dt, dT = mean(ct, i, hi) - mean(ct, lo, i), mean(cT, i, hi) - mean(cT, lo, i)
-    return np.where(dt > 0, dT / np.where(dt > 0, dt, 1.0), 0.0) * 60.0
-
-
 def thermal_directions(time_s, temperature_c, mask=None, settings: QualitySettings | None = None) -> ThermalDirections:
     """Heating and cooling present in the rows ``mask`` (all by default): the temperature change made
     by rows whose smoothed rate exceeds ±``ramp_c_per_min``; present when ≥ ``min_direction_c``."""
@@ -350,8 +339,23 @@ def _assess(time_s, temperature_c, accel_g, gyro_rad_s, where: str, s: QualitySe
     for i, j in runs(code == STATIC, breaks):
         if t[j - 1] - t[i] < s.min_static_s:
             code[i:j] = MOVING
-    handled = _mark_handling(code, t, mean_a, breaks, s) if a.shape[1] == 3 else {}
+    handled = {**_mark_turning(code, t, mean_a, breaks, s), **_mark_handling(code, t, mean_a, breaks, s)} \
+        if a.shape[1] == 3 else {}
     return _quality(where, t, T, a, code, breaks, gap, handled, Thresholds(dt_med, float(thr_sigma), thr_norm, thr_gyro), s)
+
+
+def _mark_turning(code, t, mean_a, breaks, s: QualitySettings) -> dict[int, str]:
+    """Still stretches whose gravity direction turns by more than ``turn_deg`` become moving (a
+    board rotated slowly on a turntable or a sagging mount reads steady σ and |a|); returns their
+    reasons by first row."""
+    out = {}
+    for i, j in runs(code == STATIC, breaks):
+        cos = mean_a[i:j] @ unit(mean_a[i]) / np.maximum(np.linalg.norm(mean_a[i:j], axis=1), 1e-12)
+        turn = float(np.degrees(np.arccos(np.clip(cos.min(), -1.0, 1.0))))
+        if turn > s.turn_deg:
+            code[i:j] = MOVING
+            out[i] = f"turning: the gravity direction moves {turn:.0f}° within {t[j - 1] - t[i]:.0f} s of steady readings"
+    return out
 
 
 def _mark_handling(code, t, mean_a, breaks, s: QualitySettings) -> dict[int, str]:

@@ -97,3 +97,17 @@ def clipped_rows(a: np.ndarray, range_g: float) -> np.ndarray:
         for i, j in runs(mag[:, k] >= mag[:, k].max() * (1 - 1e-6)):
             out[i:j] |= j - i >= 3
     return out
+
+
+def ramp_rate_c_per_min(time_s, temperature_c, window_s: float = 60.0) -> np.ndarray:
+    """Smoothed dT/dt per row [°C/min]: the mean of the next half window minus the mean of the last,
+    over the difference of their mean times (noise-robust, no filter delay); 0 across time resets."""
+    t, T = np.asarray(time_s, float), np.asarray(temperature_c, float)
+    n = t.size
+    h = max(1, int(round(window_s / 2 / median_dt(t))))
+    i = np.arange(n)
+    lo, hi = np.maximum(i - h, 0), np.minimum(i + h, n - 1)
+    cT, ct = np.r_[0.0, np.cumsum(T - T[0])], np.r_[0.0, np.cumsum(t - t[0])]
+    mean = lambda c, a, b: (c[b + 1] - c[a]) / (b + 1 - a)  # noqa: E731  mean of rows a..b inclusive
+    dt, dT = mean(ct, i, hi) - mean(ct, lo, i), mean(cT, i, hi) - mean(cT, lo, i)
+    return np.where(dt > 0, dT / np.where(dt > 0, dt, 1.0), 0.0) * 60.0
