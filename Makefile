@@ -36,11 +36,12 @@ run: $(STAMP)
 	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/base.json
 	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/after.json \
 		--with-effect $$($(PY) -c "import json; d = json.load(open('out/compare/base.json')); print((d['selected'] + [c['effect'] for c in d['candidates']])[0])")
-	# a real three-axis log to a validated compensation and the file PX4 loads (when ../shared is beside us)
+	# a real three-axis log to a validated compensation and the file ArduPilot loads (when ../shared is beside us;
+	# PX4 needs the vehicle's device id, which a bench log does not record: --device-id)
 	if [ -f $(TOFU) ]; then \
 		$(TWIN) calibrate $(TOFU) --time-col timestamp --time-unit us --temperature-col imu.temperature \
 			--x-col imu.acc.x --y-col imu.acc.y --z-col imu.acc.z --output-unit m/s^2 -o out/tofu_cal.json --report out/tofu_cal && \
-		$(TWIN) firmware out/tofu_cal.json --format px4 -o out/tofu_tc.params; fi
+		$(TWIN) firmware out/tofu_cal.json --format ardupilot -o out/tofu_tcal.parm; fi
 	# the paper's compensation benchmark, short version (make bench runs the full one)
 	$(TWIN) benchmark scenarios/paper_iis328dq.yaml --quick --seeds 1 --json out/benchmark_quick.json
 
