@@ -102,7 +102,8 @@ def test_apply_compensates_a_new_log_and_refuses_another_imu(ulog_cal, tmp_path)
     assert out.read_text().splitlines()[0].startswith("time_s,temperature_c,x_raw_g,x_compensated_g")
     other = json.loads(cal.read_text())
     other["imus"] = [e for e in other["imus"] if e["instance"] == 1]
-    other["imus"][0]["device_id"] = 1234
+    other["imus"][0]["device_id"] = 1234  # a calibration of another sensor: its PX4 block says so too
+    other["imus"][0]["methods"]["px4"]["firmware"]["method_parameters"]["device_id"] = 1234
     (tmp_path / "other.json").write_text(json.dumps(other))
     err = _one_line_error(run_cli("apply", str(tmp_path / "other.json"), str(log), "--imu", "1",
                                   "-o", str(tmp_path / "x.csv")))
