@@ -32,6 +32,13 @@ def cli(*args):
     return SimpleNamespace(returncode=code, stdout=out, stderr=err)
 
 
+def write_table(path, time_s, temperature_c, accel_g, gyro_rad_s=None):
+    """A tester's table: time [s], temperature [°C], acceleration [g] (and rate [rad/s]) per axis."""
+    columns = [time_s, temperature_c, accel_g] + ([gyro_rad_s] if gyro_rad_s is not None else [])
+    header = "time_s,temp_c,ax_g,ay_g,az_g" + (",wx,wy,wz" if gyro_rad_s is not None else "")
+    np.savetxt(path, np.column_stack(columns), delimiter=",", header=header, comments="", fmt="%.9g")
+
+
 def strict(text: str):
     """JSON that Python's reader accepts without NaN or Infinity."""
     def refuse(constant):
@@ -100,8 +107,7 @@ def test_a_vehicle_put_down_at_another_attitude_is_not_fitted_as_drift(tmp_path)
     roll[moving] = np.radians(15.0) * np.sin(np.pi * (t[moving] - 1195) / 10)
     accel = np.column_stack([0 * t, np.sin(roll), -np.cos(roll)]) + rng.normal(0, 1e-3, (t.size, 3))
     table = tmp_path / "replaced.csv"
-    np.savetxt(table, np.column_stack([t, temp, accel]), delimiter=",", header="time_s,temp_c,ax_g,ay_g,az_g",
-               comments="", fmt="%.9g")
+    write_table(table, t, temp, accel)
     cal = tmp_path / "cal.json"
     done = cli("calibrate", str(table), "--columns", str(_columns(tmp_path)), "-o", str(cal))
     assert done.returncode == 0, done.stderr
@@ -240,9 +246,7 @@ def calc_thermal_offsets_3d(values: dict, n: int, temperature_c: float) -> np.nd
 def test_a_table_calibration_needs_a_device_id_for_px4_and_then_applies_as_twin_apply(tmp_path):
     imu = chamber_run(n=600, rate_hz=1.0, seed=5)[0]
     table = tmp_path / "tester.csv"
-    t = imu.time_us.astype(float) * 1e-6
-    rows = np.column_stack([t, imu.temperature_c, imu.accel_ms2 / G_MS2])
-    np.savetxt(table, rows, delimiter=",", header="time_s,temp_c,ax_g,ay_g,az_g", comments="", fmt="%.9g")
+    write_table(table, imu.time_us * 1e-6, imu.temperature_c, imu.accel_ms2 / G_MS2)
     cal = tmp_path / "cal.json"
     cols = ["--time-col", "time_s", "--temperature-col", "temp_c", "--x-col", "ax_g", "--y-col", "ay_g",
             "--z-col", "az_g", "--output-unit", "g"]
@@ -288,8 +292,7 @@ def test_an_implausible_fit_is_flagged_not_recommended_and_not_exported_without_
     temp = 26.0 - 6.0 * np.cos(2 * np.pi * t / 1200.0)
     accel = np.column_stack([0.009 * (temp - 26.0), 0 * t, -1 + 0 * t]) + rng.normal(0, 1e-3, (t.size, 3))
     table = tmp_path / "steep.csv"
-    np.savetxt(table, np.column_stack([t, temp, accel]), delimiter=",", header="time_s,temp_c,ax_g,ay_g,az_g",
-               comments="", fmt="%.9g")
+    write_table(table, t, temp, accel)
     cal = tmp_path / "cal.json"
     done = cli("calibrate", str(table), "--columns", str(_columns(tmp_path)), "-o", str(cal))
     assert done.returncode == 0, done.stderr
@@ -324,8 +327,7 @@ def test_calibrate_refuses_an_imu_instance_no_firmware_has(instance):
 def test_a_table_with_gyro_writes_the_gyro_for_px4_only_with_its_device_id(tmp_path):
     imu = chamber_run(n=600, rate_hz=1.0, seed=8, gyro=True)[0]
     table = tmp_path / "gyro.csv"
-    np.savetxt(table, np.column_stack([imu.time_us * 1e-6, imu.temperature_c, imu.accel_ms2 / G_MS2, imu.gyro_rad_s]),
-               delimiter=",", header="time_s,temp_c,ax_g,ay_g,az_g,wx,wy,wz", comments="", fmt="%.9g")
+    write_table(table, imu.time_us * 1e-6, imu.temperature_c, imu.accel_ms2 / G_MS2, imu.gyro_rad_s)
     columns = _columns(tmp_path)
     columns.write_text(columns.read_text() + "gx: wx\ngy: wy\ngz: wz\n")
     cal = tmp_path / "cal.json"
