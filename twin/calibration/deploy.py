@@ -219,7 +219,7 @@ def method_entry(entry: dict, method: str | None, target: str = "c", force: bool
         raise CalibrationDocumentError(f"{where}: no plausible method for {target} ({why}); inspect the report, "
                                        "then name one with --method and --force to export it anyway")
     if name not in entry["methods"]:
-        raise CalibrationDocumentError(f"method {name!r} is not in the calibration; it holds "
+        raise CalibrationDocumentError(f"{where}: method {name!r} is not in the calibration; it holds "
                                        f"{sorted(entry['methods'])}")
     if flags.get(name) and not force:
         raise CalibrationDocumentError(f"{where}: method {name!r} is flagged: {flags[name][0]}"
@@ -332,6 +332,8 @@ def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | N
             if gyro is not None:
                 gyros.append(gyro)
             notes.append(note or f"IMU {e['instance']}: " + ("accel and gyro" if gyro is not None else NO_GYRO[fmt]))
+        if not accel:
+            raise CalibrationDocumentError(f"no IMU of the calibration has a slot in {fmt}: " + "; ".join(notes))
         ids = [c.device_id for c in accel] if fmt == "px4" else []
         twice = next((d for k, d in enumerate(ids) if d in ids[:k]), None)
         if twice is not None:  # set_sensor_id takes the first slot with the id: one would be dead
