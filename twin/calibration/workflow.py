@@ -30,6 +30,9 @@ from twin.calibration.plausibility import PlausibilityLimits, limits_for_part, m
 from twin.calibration.validate import ValidationResult, validate
 from twin.errors import TwinError
 from twin.firmware import CalibrationRangeError
+from twin.firmware.ardupilot import AP_INSTANCES
+from twin.firmware.common import DEVICE_ID_MAX
+from twin.firmware.px4 import PX4_INSTANCES as PX4_SLOTS
 from twin.measurement import ImuLog, usable_for_calibration
 from twin.measurement.imu import MIN_SAMPLES, MIN_TEMPERATURE_RANGE_C
 from twin.measurement.quality import LogQuality, LogQualityError, QualitySettings, assess_log
@@ -38,9 +41,9 @@ from twin.measurement.quality import LogQuality, LogQualityError, QualitySetting
 DEPLOYABLE = {"px4": ("px4",), "ardupilot": ("ardupilot",), "c": ("twin", "polynomial", "px4", "ardupilot")}
 # the instances each firmware has: PX4 TC_A0..TC_A3 (TemperatureCompensation.h, ACCEL_COUNT_MAX 4),
 # ArduPilot INS_TCAL1..INS_TCAL3 (INS_MAX_INSTANCES 3) for IMU instances 0..2
-PX4_INSTANCES = range(4)
-ARDUPILOT_INSTANCES = range(3)
-MAX_DEVICE_ID = 2**32 - 1  # device ids are uint32 in both firmwares
+PX4_INSTANCES = range(PX4_SLOTS)
+ARDUPILOT_INSTANCES = range(AP_INSTANCES[1])  # IMU instance n → INS_TCAL{n + 1}
+MAX_DEVICE_ID = DEVICE_ID_MAX  # device ids are uint32 in both firmwares
 # a still MEMS gyro: zero-rate offset within a few °/s and a bias tempco of a few hundredths of
 # °/s per °C (e.g. ±0.05 °/s/°C class parts); ten times those is not temperature drift
 GYRO_MAX_BIAS_RAD_S = np.radians(10.0)

@@ -43,7 +43,6 @@ from twin.firmware.common import (
 MEDIAN_KERNEL = 31  # process_sensor_caldata.py: median_filter() = medfilt(data, 31)
 N_BINS = 2000  # process_sensor_caldata.py: resampleWithDeltaX, nbInterval = 2000
 PX4_INSTANCES = 4  # TC_A0..TC_A3 and TC_G0..TC_G3 (ACCEL_COUNT_MAX, GYRO_COUNT_MAX)
-PX4_ACCEL_INSTANCES = PX4_INSTANCES
 PX4_TERMS = 4  # X0..X3: calc_thermal_offsets_3D is a cubic
 SENSOR_PREFIX = {"accel": "TC_A", "gyro": "TC_G"}
 REPUBLISH_THRESHOLD_C = 1.0  # update_offsets_accel/_gyro: fabsf(temperature - last_temperature) > 1.0f
