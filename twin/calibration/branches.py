@@ -169,6 +169,12 @@ class Fold:
     train: np.ndarray
     tests: tuple[TestSet, ...]
     note: str = ""
+    directions: tuple[str, ...] = ()  # thermal directions the training rows hold, each spanning enough
+
+    @property
+    def both_directions(self) -> bool:
+        """The training rows heat and cool: a rate-dependent term fitted on them is tested, not absorbed."""
+        return len(self.directions) == 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -181,10 +187,72 @@ class Protocol:
     note: str = ""
 
 
-def _fold(name, temperature_c, train, tests, note="") -> Fold:
+def _fold(name, temperature_c, train, tests, note="", branches=(), min_span_c: float = 10.0) -> Fold:
     lo, hi = temperature_c[train].min(), temperature_c[train].max()
     sets = tuple(TestSet(n, i, (temperature_c[i] < lo) | (temperature_c[i] > hi)) for n, i in tests if i.size)
-    return Fold(name, np.asarray(train), sets, note)
+    return Fold(name, np.asarray(train), sets, note, _directions(temperature_c, train, branches, min_span_c))
+
+
+def _directions(temperature_c, train, branches, min_span_c: float) -> tuple[str, ...]:
+    """The directions ("heating", "cooling") whose training rows span at least ``min_span_c`` °C."""
+    rows = np.zeros(temperature_c.size, bool)
+    rows[np.asarray(train)] = True
+    out = []
+    for kind in ("heating", "cooling"):
+        of_kind = np.zeros_like(rows)
+        for br in branches:
+            of_kind[br.start:br.stop] |= br.kind == kind
+        T = temperature_c[rows & of_kind]
+        if T.size and np.ptp(T) >= min_span_c:
+            out.append(kind)
+    return tuple(out)
+
+
+def protocol_as_used(time_s, temperature_c, run=None, reverse: bool = True, min_train_span_c: float = 10.0,
+                     **split_kwargs) -> Protocol:
+    """Folds that test a compensation the way it is used: fitted on one stretch, applied to another.
+
+    In order of preference:
+
+    1. several runs: leave one run out;
+    2. leave one heating or cooling branch out, wherever the other branches still heat and cool
+       over ``min_train_span_c`` each (the last branch left out is "calibrate today, fly tomorrow");
+    3. forward in time: fit everything before the middle of the last branch, test the rest of
+       it, when the rows before hold both directions;
+    4. otherwise the one-direction folds of :func:`protocol_heating_vs_cooling`, whose training
+       rows cannot tell a rate-dependent term from the static curve (``Fold.both_directions`` is
+       False, and the recommendation does not trust such a term on them).
+
+    Every fold records the directions its training rows hold.
+    """
+    T = np.asarray(temperature_c, float)
+    if run is not None and np.unique(np.asarray(run)).size > 1:
+        return protocol_heating_vs_cooling(time_s, T, run=run, reverse=reverse, min_train_span_c=min_train_span_c,
+                                           **split_kwargs)
+    branches = split_branches(time_s, T, run=run, **split_kwargs)
+    ramps = [b for b in branches if b.kind != "dwell"]
+    labels = {id(b): b.label(k) for kind in ("heating", "cooling")
+              for k, b in enumerate([b for b in ramps if b.kind == kind], start=1)}
+    folds = []
+    for b in ramps if len(ramps) > 1 else ():
+        train = np.concatenate([o.index for o in ramps if o is not b])
+        fold = _fold(f"{'forward' if b is ramps[-1] else 'leave out'}: {labels[id(b)]}", T, train,
+                     [(labels[id(b)], b.index)], "", branches, min_train_span_c)
+        if fold.both_directions:
+            folds.append(fold)
+    if not folds and len(ramps) >= 2:
+        last = ramps[-1]
+        cut = (last.start + last.stop) // 2
+        train = np.r_[np.concatenate([o.index for o in ramps[:-1]]), np.arange(last.start, cut)]
+        fold = _fold(f"forward: second half of {labels[id(last)]}", T, train,
+                     [(f"{labels[id(last)]} from {T[cut]:.1f} °C", np.arange(cut, last.stop))], "", branches,
+                     min_train_span_c)
+        if fold.both_directions:
+            folds.append(fold)
+    if folds:
+        return Protocol("held-out branches, both directions in training", tuple(folds), tuple(branches))
+    return protocol_heating_vs_cooling(time_s, T, run=run, reverse=reverse, min_train_span_c=min_train_span_c,
+                                       **split_kwargs)
 
 
 def protocol_heating_vs_cooling(time_s, temperature_c, run=None, reverse: bool = True, n_blocks: int = 6,
@@ -207,7 +275,8 @@ def protocol_heating_vs_cooling(time_s, temperature_c, run=None, reverse: bool =
     if runs.size > 1:
         r = np.asarray(run)
         folds = tuple(_fold(f"leave out run {int(u)}", T, np.flatnonzero(r != u),
-                            [(f"run {int(u)} {lab}", b.index) for b, lab in labelled if b.run == u])
+                            [(f"run {int(u)} {lab}", b.index) for b, lab in labelled if b.run == u], "",
+                            branches, min_train_span_c)
                       for u in runs)
         return Protocol("leave one run out", folds, tuple(branches))
     idx = {kind: np.concatenate([b.index for b in branches if b.kind == kind] or [np.zeros(0, int)])
@@ -220,10 +289,12 @@ def protocol_heating_vs_cooling(time_s, temperature_c, run=None, reverse: bool =
                    for a, b in (("heating", "cooling"), ("cooling", "heating")) if not trainable[a]]
         note = "; ".join(skipped)
         folds = [_fold("heating→cooling", T, idx["heating"],
-                       [(lab, b.index) for b, lab in labelled if b.kind == "cooling"], note)] if trainable["heating"] else []
+                       [(lab, b.index) for b, lab in labelled if b.kind == "cooling"], note, branches,
+                       min_train_span_c)] if trainable["heating"] else []
         if reverse and trainable["cooling"]:
             folds.append(_fold("cooling→heating", T, idx["cooling"],
-                               [(lab, b.index) for b, lab in labelled if b.kind == "heating"], note))
+                               [(lab, b.index) for b, lab in labelled if b.kind == "heating"], note, branches,
+                               min_train_span_c))
         return Protocol("fit on heating, test on cooling", tuple(folds), tuple(branches))
     pool = np.concatenate([idx["heating"], idx["cooling"]]) if (idx["heating"].size + idx["cooling"].size) else \
         np.arange(T.size)
@@ -237,5 +308,5 @@ def protocol_heating_vs_cooling(time_s, temperature_c, run=None, reverse: bool =
     note = (f"{first}: interleaved blocks (every other block held out); "
             "test temperatures lie inside the fitted range, so rate-dependent errors go unseen")
     fold = _fold("interleaved blocks", T, train, [(f"block {2 * k + 1}", b) for k, b in enumerate(blocks[1::2])],
-                 note)
+                 note, branches, min_train_span_c)
     return Protocol("interleaved blocks", (fold,), tuple(branches), note)

@@ -88,6 +88,7 @@ def calibration_json(imus: list[ImuCalibration], inputs: list[dict], version: st
             "temperature_span_c": list(c.temperature_span_c), "sample_rate_hz": c.sample_rate_hz,
             "protocol": c.protocol, "validation": _validation_json(c.validation),
             "recommended": c.recommended(),
+            **({"recommendation": c.recommendation.to_json()} if c.recommendation else {}),
             "flags": {name: list(f) for name, f in (c.flags or {}).items() if f},
             "notes": list(c.notes),
             "board_orientation": c.board_orientation,

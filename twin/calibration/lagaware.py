@@ -65,6 +65,8 @@ class LagAwareCompensator(CompensatorBase):
     train_rms_mg_ : (3,) array
     """
 
+    rate_dependent = True
+
     def __init__(self, degree: int = 3, reference_c: float = 35.0, share: str = "auto", rate_term="auto",
                  tau_bounds_s: tuple[float, float] = (0.0, 600.0), n_grid: int = 12):
         self.degree = degree

@@ -72,6 +72,8 @@ def poly_text(coef_mg: np.ndarray, variable: str) -> str:
 class CompensatorBase:
     """Parameter handling and the compensation step shared by all compensators."""
 
+    rate_dependent = False  # thermal state (a lag, a rate term): validated only by two-direction folds
+
     def get_params(self) -> dict:
         """Constructor arguments, as stored."""
         names = [p for p in inspect.signature(type(self).__init__).parameters if p != "self"]

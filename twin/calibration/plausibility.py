@@ -93,11 +93,13 @@ def method_flags(name: str, data: dict, correction_g, span_c: tuple[float, float
     if not np.all(np.isfinite(np.asarray(values, float))):
         flags.append(f"{name}: non-finite coefficients")
         return flags
-    for key, label in (("tau_die_s", "τ_die"), ("tau_rate_s", "τ_rate")):
-        for axis, tau in zip(AXES, data.get(key) or []):
-            if tau is not None and tau >= (1 - TAU_BOUND_MARGIN) * limits.tau_max_s:
-                flags.append(f"{name} {axis}: {label} {tau:.0f} s is on its {limits.tau_max_s:g} s search bound "
-                             "(the data do not fix it)")
+    # a die lag on its bound has absorbed something slower than a die (motion, a flip, a drift);
+    # a rate term's τ on its bound is a relaxation slower than the search, which the held-out
+    # folds judge (twin.calibration.recommend): a note, not a flag (see rate_bound_notes)
+    for axis, tau in zip(AXES, data.get("tau_die_s") or []):
+        if tau is not None and tau >= (1 - TAU_BOUND_MARGIN) * limits.tau_max_s:
+            flags.append(f"{name} {axis}: τ_die {tau:.0f} s is on its {limits.tau_max_s:g} s search bound "
+                         "(the data do not fix it)")
     level = np.asarray(data.get("level_g") or (np.asarray(data.get("coef_mg", [[0.0]] * 3))[:, 0] * 1e-3), float)
     for axis, g in zip(AXES, level):
         if abs(g) > MAX_LEVEL_G:
@@ -116,6 +118,14 @@ def method_flags(name: str, data: dict, correction_g, span_c: tuple[float, float
             flags.append(f"{name} {axis}: offset slope up to {s:.1f} mg/°C, beyond {limits.tcoff_mg_per_c:g} mg/°C "
                          f"({limits.source})")
     return flags
+
+
+def rate_bound_notes(name: str, data: dict, limits: PlausibilityLimits) -> list[str]:
+    """Notes on rate terms whose time constant ran to the search bound: the data do not fix τ_rate."""
+    return [f"{name} {axis}: τ_rate {tau:.0f} s is on its {limits.tau_max_s:g} s search bound: the data do not fix "
+            "it, so the rate term stands only as far as the held-out folds that both heat and cool support it"
+            for axis, tau in zip(AXES, data.get("tau_rate_s") or [])
+            if tau is not None and tau >= (1 - TAU_BOUND_MARGIN) * limits.tau_max_s]
 
 
 def tcso_flags(orientations: dict, limits: PlausibilityLimits) -> list[str]:

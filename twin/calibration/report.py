@@ -58,8 +58,15 @@ def write_calibration_report(directory: Path, calibrations: list[ImuCalibration]
         heating = np.gradient(temp) > 0
         parts.append(f"<h2>IMU {c.instance} (device_id {c.device_id}), {c.samples} samples, "
                      f"{c.temperature_span_c[0]:.1f}…{c.temperature_span_c[1]:.1f} °C — {html.escape(c.protocol)}</h2>")
-        parts.append(f"<p>Recommended: {html.escape(str(c.recommended()))}; best per axis: "
+        rec = c.recommended()
+        parts.append("<p>Recommended: " + html.escape(", ".join(
+            f"{label} {rec.get(k) or 'none (flagged or not fitted)'}" for k, label in
+            (("px4", "PX4"), ("ardupilot", "ArduPilot"), ("c", "custom C and twin apply")))) + "; best per axis: "
                      f"{html.escape(', '.join(f'{a} {m}' for a, m in zip(AXES, c.validation.best_method)))}</p>")
+        if c.recommendation is not None:
+            parts.append(f"<p>Why this default: {html.escape(c.recommendation.reason)}</p>")
+            parts.extend(f"<p>Not the default: {html.escape(v.reason)}</p>" for v in c.recommendation.verdicts
+                         if not v.eligible)
         parts.append(_quality(c))
         parts.append(_table(c.validation))
         parts.extend(f"<p>{html.escape(n)}</p>" for n in c.validation.notes + c.notes)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.calibration.branches import protocol_heating_vs_cooling
+from twin.calibration.branches import protocol_as_used
 from twin.calibration.correction import correction_g
 from twin.calibration.document import AS_APPLIED, method_json
 from twin.calibration.lag import make_X
@@ -26,7 +26,14 @@ from twin.calibration.methods import (
 )
 from twin.calibration.models import AXES, PolynomialCompensator
 from twin.calibration.orientation import cluster_orientations, fit_offset_scale, segments_of
-from twin.calibration.plausibility import PlausibilityLimits, limits_for_part, method_flags, tcso_flags
+from twin.calibration.recommend import Recommendation, recommend
+from twin.calibration.plausibility import (
+    PlausibilityLimits,
+    limits_for_part,
+    method_flags,
+    rate_bound_notes,
+    tcso_flags,
+)
 from twin.calibration.validate import ValidationResult, validate
 from twin.errors import TwinError
 from twin.firmware import CalibrationRangeError
@@ -102,19 +109,18 @@ class ImuCalibration:
     gyro: GyroCalibration | None = None  # when the logs have this IMU's gyro
     quality: tuple[LogQuality, ...] = ()  # per log: which rows were still and used, what was excluded and why
     board_orientation: int | None = None  # ArduPilot AHRS_ORIENTATION of the logs (IMU messages rotated by it)
+    recommendation: Recommendation | None = None  # the default of apply and the C export, and why
 
     def heldout_rms_mg(self, method: str) -> np.ndarray:
         """Held-out RMS [mg] per axis of ``method``, pooled over folds and test branches."""
         return self.validation.rms_mg(method)
 
     def recommended(self) -> dict[str, str | None]:
-        """Per target firmware, the deployable, unflagged method with the lowest pooled held-out RMS
-        (summed over axes); None when every candidate for that target is flagged or absent."""
-        out = {}
+        """Per target firmware: PX4 and ArduPilot their own method unless flagged; custom C (and
+        ``twin apply``) the method :func:`twin.calibration.recommend.recommend` chose."""
         flags = self.flags or {}
-        for target, methods in DEPLOYABLE.items():
-            have = [m for m in methods if m in self.fitted and not flags.get(m)]
-            out[target] = min(have, key=lambda m: float(np.sum(self.heldout_rms_mg(m) ** 2))) if have else None
+        out = {t: (t if t in self.fitted and not flags.get(t) else None) for t in ("px4", "ardupilot")}
+        out["c"] = self.recommendation.method if self.recommendation else None
         return out
 
 
@@ -269,7 +275,7 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     time_s, temperature_c, accel_g, run = time_s[rows], temperature_c[rows], accel_g[rows] - gravity_g[rows], run[rows]
     run_or_none = run if len(logs) > 1 else None
     models = methods_for(first.instance, device, extra_methods)
-    protocol = protocol_heating_vs_cooling(time_s, temperature_c, run=run_or_none, reverse=reverse)
+    protocol = protocol_as_used(time_s, temperature_c, run=run_or_none, reverse=reverse)
     validation = validate({**models, **as_applied(models)}, time_s, temperature_c, accel_g, protocol, run=run_or_none)
     X = make_X(time_s, temperature_c, run_or_none)
     fitted, unfit = {}, {}
@@ -306,12 +312,17 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
             gyro.flags["ardupilot"].append(frame)
     if orientations:
         orientations["flags"] = tcso_flags(orientations, limits)
+    candidates = [m for m in dict.fromkeys(DEPLOYABLE["c"] + tuple(extra_methods or ())) if m in fitted and not flags.get(m)]
+    rate_dependent = {m for m in candidates if getattr(models[m], "rate_dependent", False)}
+    recommendation = recommend(validation, protocol, candidates, rate_dependent)
     read = tuple(dict.fromkeys(n for log in logs for n in log.notes))  # what the readers dropped or noticed
     read += tuple(f"IMU instance {first.instance}: {name} not fitted: {why}" for name, why in unfit.items())
+    read += tuple(n for name, est in fitted.items() for n in rate_bound_notes(name, method_json(name, est), limits))
     notes = read + gyro_note + (() if "ardupilot" in models else (f"IMU instance {first.instance}: ArduPilot has INS_TCAL1..3 "
                                                            "for instances 0..2 only; no ArduPilot method",))
     return ImuCalibration(first.instance, device, tuple(log.source for log in logs), int(time_s.size), span, rate,
-                          protocol.name, validation, fitted, orientations, flags, notes, gyro, qualities, rotation)
+                          protocol.name, validation, fitted, orientations, flags, notes, gyro, qualities, rotation,
+                          recommendation)
 
 
 def as_applied(models: dict) -> dict:

@@ -72,6 +72,11 @@ def _print_table(c, axes: list[str]) -> None:
     typer.echo("  recommended: " + ", ".join(f"{label} {rec.get(k) or 'none (flagged or not fitted)'}"
                                              for k, label in shown.items())
                + f"; best per axis: {', '.join(f'{a} {v.best_method[i]}' for a, i in zip(axes, idx))}")
+    if c.recommendation is not None:
+        typer.echo(f"  default of apply and the C export: {c.recommendation.reason}")
+        for verdict in c.recommendation.verdicts:
+            if not verdict.eligible:
+                typer.echo(f"    not the default: {verdict.reason}")
     for note in v.notes + c.notes:
         typer.echo(f"  {note}")
     for reason in (r for reasons in (c.flags or {}).values() for r in reasons):

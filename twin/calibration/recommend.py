@@ -1,0 +1,138 @@
+"""Which compensation a vehicle gets by default: the rule, stated once.
+
+The default of ``twin apply`` and of the C export is the method with the lowest held-out error on
+the folds that can validate it, and never one that is worse than the PX4 cubic on any such fold
+and axis by more than ``tolerance`` (2 %). A rate-dependent method (a lag, a gradient, a
+relaxation: anything with thermal state) is validated only by folds whose training rows both heat
+and cool — on one direction at one ramp rate, its rate term is absorbed by the static curve and
+says nothing about the other direction. A static polynomial is validated by any fold. When no
+method qualifies beyond the cubic, the cubic is the default, with the reason.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from twin.calibration.branches import Protocol
+from twin.calibration.models import AXES
+from twin.calibration.validate import ValidationResult
+
+TOLERANCE = 0.02  # "worse than the cubic" means by more than this fraction, on any validating fold and axis
+REFERENCE = "px4"  # the cubic every flight controller already runs
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What the data could say about one method.
+
+    Attributes
+    ----------
+    method : str
+    folds : tuple of str
+        The folds that can validate it.
+    rms_mg : (float, float, float) or None
+        Held-out RMS per axis pooled over those folds [mg].
+    worst_ratio : float or None
+        Its largest RMS ratio to the cubic over those folds and axes.
+    eligible : bool
+    reason : str
+        One sentence: validated and how, or why not.
+    """
+
+    method: str
+    folds: tuple[str, ...]
+    rms_mg: tuple[float, float, float] | None
+    worst_ratio: float | None
+    eligible: bool
+    reason: str
+
+
+@dataclass(frozen=True)
+class Recommendation:
+    """The default method and why, with every candidate's verdict."""
+
+    method: str | None
+    reason: str
+    verdicts: tuple[Verdict, ...]
+
+    def to_json(self) -> dict:
+        return {"method": self.method, "reason": self.reason,
+                "verdicts": {v.method: {"folds": list(v.folds), "eligible": v.eligible, "reason": v.reason,
+                                        "rms_mg": dict(zip(AXES, v.rms_mg)) if v.rms_mg else None,
+                                        "worst_ratio_to_cubic": v.worst_ratio} for v in self.verdicts}}
+
+
+def validating_folds(protocol: Protocol, rate_dependent: bool) -> tuple[str, ...]:
+    """Folds that can validate a method: all of them for a static one, two-direction ones otherwise."""
+    return tuple(f.name for f in protocol.folds if f.both_directions or not rate_dependent)
+
+
+def recommend(validation: ValidationResult, protocol: Protocol, candidates: list[str], rate_dependent: set[str],
+              reference: str = REFERENCE, tolerance: float = TOLERANCE) -> Recommendation:
+    """Apply the rule (module docstring) to ``candidates`` (deployable, unflagged method names).
+
+    Parameters
+    ----------
+    validation : ValidationResult
+        Scores per fold, method and test.
+    protocol : Protocol
+        The folds scored, with the directions each fold's training rows hold.
+    candidates : list of str
+        Methods the target can run that are not flagged.
+    rate_dependent : set of str
+        The candidates with thermal state.
+    reference : str
+        The cubic the rule compares against; when it is not among the scored methods the first
+        candidate scored on every fold stands in, and the reason says so.
+    """
+    scored = set(validation.methods)
+    if reference not in scored:
+        stand_in = next((m for m in candidates if m in scored and m not in rate_dependent), None)
+        if stand_in is None:
+            return Recommendation(None, f"no cubic ({reference}) was validated to compare against", ())
+        reference = stand_in
+    verdicts = [_verdict(validation, protocol, m, m in rate_dependent, reference, tolerance) for m in candidates]
+    eligible = [v for v in verdicts if v.eligible]
+    if not eligible:
+        return Recommendation(None, "no candidate was validated", tuple(verdicts))
+    best = min(eligible, key=lambda v: float(np.sum(np.square(_pooled(validation, v.method, v.folds)))))
+    others = [v for v in verdicts if v.method != best.method and not v.eligible]
+    if best.method == reference:
+        why = f"{reference}: the cubic, " + ("; ".join(v.reason for v in others) if others else
+                                             "no other method does better on every validating fold")
+    else:
+        why = (f"{best.method}: lowest held-out RMS on the folds that validate it "
+               f"({', '.join(best.folds)}), at most {best.worst_ratio:.2f}× the cubic on any of them and any axis")
+    return Recommendation(best.method, why, tuple(verdicts))
+
+
+def _pooled(validation: ValidationResult, method: str, folds: tuple[str, ...]) -> np.ndarray:
+    hits = [s for s in validation.scores if s.method == method and s.test == "overall" and s.fold in folds]
+    return np.sqrt(sum(np.square(s.rms_mg) * s.n for s in hits) / sum(s.n for s in hits))
+
+
+def _verdict(validation: ValidationResult, protocol: Protocol, method: str, rate_dependent: bool, reference: str,
+             tolerance: float) -> Verdict:
+    folds = validating_folds(protocol, rate_dependent)
+    have = {s.fold for s in validation.scores if s.method == method and s.test == "overall"}
+    ref = {s.fold for s in validation.scores if s.method == reference and s.test == "overall"}
+    usable = tuple(f for f in folds if f in have and f in ref)
+    if not usable:
+        one_way = ", ".join(sorted({d for f in protocol.folds for d in f.directions})) or "no direction"
+        why = (f"{method}: unvalidated: it has thermal state, and no fold's training rows both heat and cool "
+               f"(they hold {one_way} only), so its rate term cannot be told from the static curve"
+               if rate_dependent and not any(f.both_directions for f in protocol.folds) else
+               f"{method}: unvalidated: not fitted on any fold that can validate it")
+        return Verdict(method, (), None, None, False, why)
+    ratios = np.array([validation.rms_mg(method, "overall", f) / np.maximum(validation.rms_mg(reference, "overall", f),
+                                                                            1e-12) for f in usable])
+    worst = float(ratios.max())
+    k, a = np.unravel_index(int(np.argmax(ratios)), ratios.shape)
+    pooled = tuple(float(v) for v in _pooled(validation, method, usable))
+    if worst > 1 + tolerance:
+        why = (f"{method}: {100 * (worst - 1):.0f} % worse than the cubic on {AXES[a]} in fold '{usable[k]}' "
+               f"(the rule allows {100 * tolerance:g} %)")
+        return Verdict(method, usable, pooled, worst, False, why)
+    return Verdict(method, usable, pooled, worst, True, f"{method}: validated on {', '.join(usable)}")
