@@ -76,22 +76,6 @@ def test_real_px4_sample_is_read_and_refused_with_its_reason(tmp_path):
     assert not (tmp_path / "cal.json").exists()
 
 
-def test_tofupilot_twin_beats_the_firmware_methods_on_cooling_branches(tmp_path):
-    """Fitted on the heating branch (minimum to maximum temperature), tested on both cooling branches."""
-    cal = tmp_path / "cal.json"
-    r = run_cli("calibrate", str(TOFU), *TOFU_OPTS, "--no-reverse", "-o", str(cal), "--report", str(tmp_path / "rep"))
-    assert r.returncode == 0, r.stderr
-    print(r.stdout)
-    page = (tmp_path / "rep" / "report.html").read_text()
-    assert page.count("data:image/png") == 3 and "Axis z: residual after each method" in page
-    v = json.loads(cal.read_text())["imus"][0]["validation"]["heldout_rms_mg"]
-    # protocol check from the issue: a cubic about 35 °C (the ArduPilot method) fitted this way
-    np.testing.assert_allclose([v["ardupilot"][a] for a in "xyz"], [1.15, 3.49, 8.86], atol=0.02)
-    for method in ("px4", "ardupilot"):
-        for axis in "xyz":
-            assert v["twin"][axis] <= 0.6 * v[method][axis], (method, axis, v["twin"][axis], v[method][axis])
-
-
 def test_apply_compensates_a_new_log_and_refuses_another_imu(ulog_cal, tmp_path):
     log, cal, doc = ulog_cal
     out = tmp_path / "comp.csv"
