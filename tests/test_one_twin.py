@@ -143,3 +143,97 @@ def test_folds_know_whether_their_training_rows_heat_and_cool():
     assert [f.both_directions for f in heating.folds] == [False]
     two = protocol_as_used(t[:2250], cycle[:2250])  # heat then cool: the forward fold cuts the last branch
     assert [f.name.startswith("forward: second half") for f in two.folds] == [True]
+
+
+def _relaxing_log(seed: int, noise_mg: float = 0.3):
+    """Two chamber cycles at two ramp rates; truth per axis: a cubic plus a Maxwell relaxation term."""
+    from sim.drift import maxwell_relaxation
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 9000.0 + 2 * 5400.0, 5.0)
+    # one cycle of 150 min, then two of 90 min: two ramp rates, the temperature continuous throughout
+    T = 25 + 30 * np.where(t < 9000, np.sin(2 * np.pi * t / 9000.0), np.sin(2 * np.pi * (t - 9000) / 5400.0))
+    dT = T - 35.0
+    truth = {"k": np.array([0.8, -0.5, 1.2]), "tau_s": 3000.0}
+    relax = maxwell_relaxation(T - 25.0, 5.0, truth["tau_s"])[:, None] * truth["k"] * 1e-3
+    accel = np.column_stack([0.02 * dT * 1e-3 + 0.001, -0.03 * dT * 1e-3, -1 + 2e-4 * dT ** 2 * 1e-3]) + relax
+    return t, T, accel + rng.normal(0, noise_mg * 1e-3, accel.shape), truth
+
+
+def test_composed_effect_recovers_a_known_relaxation_and_reaches_the_noise_held_out():
+    from twin.calibration.composed import ComposedCompensator
+    from twin.calibration.lag import make_X
+    from twin.calibration.validate import validate
+    from twin.calibration.methods import Px4Method
+
+    t, T, accel, truth = _relaxing_log(seed=4)
+    X = make_X(t, T)
+    est = ComposedCompensator(("stress_relaxation",)).fit(X, accel)
+    for a, entry in enumerate(est.axes_):
+        relax = next(e["values"] for e in entry["effects"] if e["name"] == "stress_relaxation")
+        # 0.3 mg noise over 4320 rows: τ within 10 %, amplitudes within 5 % (several σ of the fit)
+        assert abs(relax["tau_s"] / truth["tau_s"] - 1) < 0.10, relax
+        assert abs(relax["k1_mg_per_c"] / truth["k"][a] - 1) < 0.05, relax
+    protocol = protocol_as_used(t, T)
+    assert all(f.both_directions for f in protocol.folds)
+    v = validate({"composed": ComposedCompensator(("stress_relaxation",)), "px4": Px4Method()}, t, T, accel, protocol)
+    # the white-noise floor is 0.3 mg: what the composed twin leaves held out is noise (10 % allowance
+    # for the fitted parameters' own error); the cubic leaves the relaxation
+    assert np.all(v.rms_mg("composed") <= 1.1 * 0.3), v.rms_mg("composed")
+    assert np.all(v.rms_mg("px4") > 2 * v.rms_mg("composed"))
+
+
+def test_compare_named_effects_are_composed_per_axis_applied_and_refused_for_c(tmp_path):
+    from conftest import run_in_process as run
+    from twin.calibration.deploy import correction_g
+    from twin.calibration.lag import make_X
+
+    t, T, accel, _ = _relaxing_log(seed=5)
+    log = tmp_path / "table.csv"
+    np.savetxt(log, np.column_stack([t, T, accel]), delimiter=",", header="time_s,temp_c,ax,ay,az", comments="")
+    cols = ["--time-col", "time_s", "--temperature-col", "temp_c", "--x-col", "ax", "--y-col", "ay", "--z-col", "az"]
+    finding = tmp_path / "compare.json"
+    finding.write_text(json.dumps({"imus": [{"instance": 0, "axes": {"x": {"selected": ["stress_relaxation"]},
+                                                                      "y": {"selected": []},
+                                                                      "z": {"selected": ["stress_relaxation"]}}}]}))
+    cal = tmp_path / "cal.json"
+    code, out, err = run(["calibrate", str(log), *cols, "--effects-from", str(finding), "-o", str(cal)])
+    assert code == 0, err
+    assert "compared x: static cubic + die lag + stress_relaxation" in out and "compared y: static cubic + die lag leaves" in out
+    entry = json.loads(cal.read_text())["imus"][0]
+    stored = entry["methods"]["compared"]
+    assert [[e["name"] for e in ax["effects"]] for ax in stored["axes"]] == [
+        ["thermal_lag", "stress_relaxation"], ["thermal_lag"], ["thermal_lag", "stress_relaxation"]]
+    # one implementation of the prediction: the stored document gives what the fitted estimator gave
+    from twin.calibration.composed import ComposedCompensator
+
+    est = ComposedCompensator({"x": ("stress_relaxation",), "z": ("stress_relaxation",)}).fit(make_X(t, T), accel)
+    level = np.asarray(stored["coef_mg"])[:, 0] * 1e-3
+    np.testing.assert_allclose(correction_g(stored, t, T) + level, est.predict(make_X(t, T)), atol=1e-9)
+    code, out, err = run(["apply", str(cal), str(log), *cols[:0], "--columns", str(_columns(tmp_path)), "--method",
+                          "compared", "-o", str(tmp_path / "applied.csv")])
+    assert code == 0, err
+    code, _, err = run(["firmware", str(cal), "--format", "c", "--method", "compared", "-o", str(tmp_path / "c.h")])
+    assert code == 2 and "cannot run yet" in err and not (tmp_path / "c.h").exists()
+
+
+def _columns(d):
+    path = d / "cols.yaml"
+    path.write_text("time: time_s\ntemperature: temp_c\nx: ax\ny: ay\nz: az\n")
+    return path
+
+
+@pytest.mark.parametrize("doc,expected", [
+    ({"selected": ["stress_relaxation"]}, "no 'imus'"),
+    ({"imus": [{"instance": 0, "axes": {"w": {"selected": []}}}]}, "expected an axis x|y|z"),
+    ({"imus": [{"instance": 0, "axes": {"x": {"selected": ["stress_relaxaton"]}}}]}, "did you mean"),
+])
+def test_a_compare_result_calibrate_cannot_use_is_one_line(tmp_path, doc, expected):
+    t, T, accel, _ = _relaxing_log(seed=6)
+    log = tmp_path / "table.csv"
+    np.savetxt(log, np.column_stack([t, T, accel])[:50], delimiter=",", header="time_s,temp_c,ax,ay,az", comments="")
+    (tmp_path / "c.json").write_text(json.dumps(doc))
+    code, _, err = run_in_process(["calibrate", str(log), "--columns", str(_columns(tmp_path)), "--effects-from",
+                                   str(tmp_path / "c.json"), "-o", str(tmp_path / "cal.json")])
+    assert code == 2 and expected in err and err.count("\n") == 1, err
+    assert not (tmp_path / "cal.json").exists()

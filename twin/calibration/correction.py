@@ -31,6 +31,10 @@ def correction_g(data: dict, time_s, temperature_c, run=None) -> np.ndarray:
     T = np.asarray(temperature_c, float)
     if data.get("kind") == "firmware":
         return firmware_cal(data, "firmware").offset_m_s2(T) / G0_M_S2
+    if data.get("kind") == "ComposedCompensator":
+        from twin.calibration.composed import composed_drift_g
+
+        return composed_drift_g(data["axes"], data["reference_c"], time_s, T, run)
     coef = np.asarray(data["coef_mg"], float)
     out = np.empty((T.size, coef.shape[0]))
     log = as_log(make_X(np.asarray(time_s, float), T, run))

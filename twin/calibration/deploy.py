@@ -361,6 +361,10 @@ def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | N
         text = json.dumps(strict_json(out), indent=2, allow_nan=False) + "\n"
     elif data.get("kind") == "firmware":
         text = c_header(_firmware_cal(data, name), sample_rate_hz or entry["sample_rate_hz"])
+    elif data.get("kind") == "ComposedCompensator":
+        raise CalibrationDocumentError(f"method {name!r} composes library effects, which the C header cannot run yet "
+                                       "(it runs lags, a rate term and polynomials); export 'twin' or a polynomial, "
+                                       "or apply it with twin apply")
     else:
         from twin.firmware import lag_aware_c_header
 

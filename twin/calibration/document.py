@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from twin.calibration.composed import ComposedCompensator
 from twin.calibration.lagaware import LagAwareCompensator
 from twin.calibration.models import AXES
 from twin.calibration.validate import ValidationResult
@@ -67,6 +68,8 @@ def method_json(name: str, est) -> dict:
                 "equation": est.equation()}
     doc = {"kind": type(est).__name__, "reference_c": est.reference_c, "coef_mg": est.coef_mg_.tolist(),
            "equation": est.equation()}
+    if isinstance(est, ComposedCompensator):
+        doc.update(axes=est.axes_)
     if isinstance(est, LagAwareCompensator):
         doc.update(tau_die_s=est.tau_die_s_.tolist(), tau_rate_s=[None if not np.isfinite(t) else float(t)
                                                                    for t in est.tau_rate_s_],

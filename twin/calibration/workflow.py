@@ -16,6 +16,7 @@ from twin.calibration.branches import protocol_as_used
 from twin.calibration.correction import correction_g
 from twin.calibration.document import AS_APPLIED, method_json
 from twin.calibration.lag import make_X
+from twin.calibration.composed import ComposedCompensator, composed_notes
 from twin.calibration.lagaware import LagAwareCompensator
 from twin.calibration.methods import (
     ArduPilotGyroMethod,
@@ -57,6 +58,7 @@ GYRO_MAX_BIAS_RAD_S = np.radians(10.0)
 GYRO_MAX_SLOPE_RAD_S_PER_C = np.radians(0.5)
 MULTI_POSITION_FACES = 3  # this many faces in one log make a six-position or tumble test
 MIN_MEDIAN_NORM_G = 0.25  # below this median |a| the log holds no gravity: not raw accelerometer readings
+COMPARED = "compared"  # the method composing, per axis, the effects twin compare named
 MIN_STATIC_S = 60.0  # a calibration needs at least a minute of still rows (and MIN_TEMPERATURE_RANGE_C of span)
 
 
@@ -312,12 +314,15 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
             gyro.flags["ardupilot"].append(frame)
     if orientations:
         orientations["flags"] = tcso_flags(orientations, limits)
-    candidates = [m for m in dict.fromkeys(DEPLOYABLE["c"] + tuple(extra_methods or ())) if m in fitted and not flags.get(m)]
+    # composed library effects run in twin apply, not yet in the C header: the ledger shows them, the default is exportable
+    candidates = [m for m in dict.fromkeys(DEPLOYABLE["c"] + tuple(extra_methods or ()))
+                  if m in fitted and not flags.get(m) and not isinstance(models[m], ComposedCompensator)]
     rate_dependent = {m for m in candidates if getattr(models[m], "rate_dependent", False)}
     recommendation = recommend(validation, protocol, candidates, rate_dependent)
     read = tuple(dict.fromkeys(n for log in logs for n in log.notes))  # what the readers dropped or noticed
     read += tuple(f"IMU instance {first.instance}: {name} not fitted: {why}" for name, why in unfit.items())
     read += tuple(n for name, est in fitted.items() for n in rate_bound_notes(name, method_json(name, est), limits))
+    read += composed_notes(validation, fitted)
     notes = read + gyro_note + (() if "ardupilot" in models else (f"IMU instance {first.instance}: ArduPilot has INS_TCAL1..3 "
                                                            "for instances 0..2 only; no ArduPilot method",))
     return ImuCalibration(first.instance, device, tuple(log.source for log in logs), int(time_s.size), span, rate,
@@ -403,14 +408,21 @@ def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[li
     skipped with the reason when others can (a flight controller's second IMU on a cooler part
     of the board often spans too little), and its error is raised when it is the only one.
 
+    ``compared`` (instance → axis → effect names, as ``twin compare`` named them) adds a method
+    :data:`COMPARED` composing those effects per axis, validated beside the others.
+
     Returns
     -------
     (calibrations, skipped) : list of ImuCalibration, dict instance → reason
     """
     done, skipped = [], {}
+    compared = options.pop("compared", None) or {}
     for instance, logs in sorted(per_instance.items()):
+        extra = dict(options.get("extra_methods") or {})
+        if instance in compared:
+            extra[COMPARED] = ComposedCompensator(compared[instance])
         try:
-            done.append(calibrate_imu(logs, **options))
+            done.append(calibrate_imu(logs, **{**options, "extra_methods": extra}))
         except TwinError as exc:  # any refusal of this IMU's logs; the others are still calibrated
             if len(per_instance) == 1:
                 raise

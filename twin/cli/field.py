@@ -109,6 +109,31 @@ def _print_table(c, axes: list[str]) -> None:
             typer.echo(f"  flagged (not exported without --force): {reason}")
 
 
+def _composed_methods(with_effect: list[str], effects_from: Path | None, plugins: list[str]):
+    """(extra methods for every IMU, per-instance effects compare named) from the options."""
+    from twin.calibration.composed import ComposedCompensator, effects_named_by_compare
+    from twin.effects import get_effect
+    from twin.io import read_json
+    from twin.plugins import import_plugin
+
+    for spec in plugins:
+        import_plugin(spec)
+    for name in with_effect:
+        get_effect(name)  # an unknown name: "did you mean", before any fitting
+    extra = {"twin+" + "+".join(dict.fromkeys(with_effect)): ComposedCompensator(tuple(dict.fromkeys(with_effect)))} \
+        if with_effect else {}
+    compared = (effects_named_by_compare(read_json(effects_from, "compare result", TwinError), str(effects_from))
+                if effects_from else {})
+    for named in compared.values():
+        for axis, names in named.items():
+            for name in names:
+                try:
+                    get_effect(name)
+                except TwinError as exc:
+                    raise TwinError(f"{effects_from}: axis {axis}: {exc} (load its plugin with --plugin)") from None
+    return extra, compared
+
+
 @app.command()
 def calibrate(
     logs: Annotated[list[Path], typer.Argument(help="logs of one vehicle or tester: PX4 .ulg, ArduPilot .bin, 3-axis CSV/TSV (several = several runs)")],
@@ -125,6 +150,9 @@ def calibrate(
     output_unit: Annotated[Optional[str], typer.Option(help="g, mg, m/s^2, digits")] = None,
     no_reverse: Annotated[bool, typer.Option("--no-reverse", help="validate heating→cooling only (not also cooling→heating)")] = False,
     device_id: Annotated[Optional[int], typer.Option("--device-id", help="the accelerometer's device id when the log does not record it (a tester's table); PX4 applies TC_An only to the sensor with this id")] = None,
+    with_effect: Annotated[Optional[list[str]], typer.Option("--with-effect", help="also fit the twin with this library effect on every axis (repeatable), validated beside the others")] = None,
+    effects_from: Annotated[Optional[Path], typer.Option("--effects-from", help="JSON of twin compare --axes …: also fit the twin with the effects it named, per IMU and axis")] = None,
+    plugin: Annotated[Optional[list[str]], typer.Option("--plugin", help="effect module (.py path or module name) to load for --with-effect; runs its code")] = None,
     part: Annotated[str, typer.Option("--part", help="part set whose datasheet TCOff/TCSo bound a plausible fit (twin parts)")] = "IIS328DQ",
     report: Annotated[Optional[Path], typer.Option("--report", help="write report.html (tables, residual plots, equations) into DIR")] = None,
     json_out: JsonOpt = None,
@@ -137,9 +165,12 @@ def calibrate(
     from twin.calibration.workflow import calibrate_imus
     from twin.measurement import imu_logs_by_instance
 
-    with guard(inputs=logs + ([columns] if columns else []), outputs=_outputs(output, json_out)):
+    extra_inputs = ([columns] if columns else []) + ([effects_from] if effects_from else []) + \
+        [Path(p) for p in plugin or [] if p.endswith(".py")]
+    with guard(inputs=logs + extra_inputs, outputs=_outputs(output, json_out)):
         _distinct(output, json_out)
         chosen = parse_axes(axes)
+        extra, compared = _composed_methods(with_effect or [], effects_from, plugin or [])
         if report is not None and report.exists() and not report.is_dir():
             raise TwinError(f"{report}: exists and is not a folder; --report expects a folder to write into")
         if report is not None:  # checked before the calibration is written, not after
@@ -153,7 +184,8 @@ def calibrate(
             raise TwinError(f"--device-id names one sensor, but the logs hold IMU instances {sorted(per)}; "
                             "choose one with --imu")
         limits = limits_for_part(part)
-        results, skipped = calibrate_imus(per, reverse=not no_reverse, device_id=device_id, limits=limits)
+        results, skipped = calibrate_imus(per, reverse=not no_reverse, device_id=device_id, limits=limits,
+                                          extra_methods=extra, compared=compared)
         doc = calibration_json(results, file_provenance(logs), __version__, skipped)
         emit_json(doc, str(output))
         if report is not None:

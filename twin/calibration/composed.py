@@ -1,0 +1,241 @@
+"""The twin the diagnosis builds, as a compensation: a static curve in the die temperature plus the
+library's effects, per axis.
+
+Per axis ``a(t) = p(T_die − T_ref) + Σ_effects Σ_k A_k·basis_k(inputs)``, with ``T_die`` from the
+``thermal_lag`` effect (the temperature slot) and every other effect evaluated by the effect
+library itself (:meth:`twin.effects.Effect.basis`), so the compensation and ``twin compare``
+predict with one implementation. The amplitudes enter linearly; the nonlinear parameters (time
+constants, widths) are searched on each effect's own grid and refined (variable projection), on
+the training rows only, while every stateful effect runs over the whole log.
+
+:func:`composed_drift_g` evaluates a stored model; ``predict``, ``twin apply`` and the
+plausibility checks all call it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from twin.calibration.lag import ThermalLog, as_log, train_mask
+from twin.calibration.models import AXES, CompensatorBase, poly_columns, to_mg_per_c
+from twin.diagnosis.linalg import fit_bounded_linear
+from twin.effects import Composition, EffectInputs, get_effect
+from twin.errors import TwinError
+
+TEMPERATURE_SLOT = "thermal_lag"
+
+
+def _inputs(log: ThermalLog, applied_g: float) -> EffectInputs:
+    t0 = np.empty_like(log.time_s)
+    for s in log.segments():
+        t0[s] = log.time_s[s.start]
+    return EffectInputs(time_s=log.time_s, die_c=log.temperature_c, thermometer_c=log.temperature_c,
+                        applied_g=np.full(log.time_s.size, float(applied_g)), run_index=log.run,
+                        time_since_power_on_s=log.time_s - t0)
+
+
+def _columns(effects: list, log: ThermalLog, applied_g: float, degree: int, reference_c: float):
+    """(n, k) design: powers of (T_die − ref)/10 °C, then each effect's screened amplitude bases [g]."""
+    comp = Composition(effects)
+    inputs = comp.with_die_temperature(_inputs(log, applied_g))
+    cols, names = [poly_columns(inputs.die_c - reference_c, degree)], []
+    for e in comp.drift_effects:
+        screened = {p.name for p in e.parameters if p.role == "amplitude" and p.screen}
+        for amp, contrib in e.basis(inputs).items():
+            if amp in screened:
+                cols.append(np.broadcast_to(contrib.output_g(inputs.applied_g), (log.time_s.size,))[:, None])
+                names.append((e.name, amp))
+    return np.column_stack(cols), names
+
+
+def _make(spec: list[tuple[str, dict]]) -> list:
+    return [get_effect(name)({}, **values) for name, values in spec]
+
+
+def composed_drift_g(axes: list[dict], reference_c: float, time_s, temperature_c, run=None) -> np.ndarray:
+    """Modelled drift [g], (n, 3), of a stored composed model, its level removed.
+
+    ``axes[a]``: ``{"coef_mg": [...], "applied_g": g, "effects": [{"name", "values"}, ...]}`` as
+    :attr:`ComposedCompensator.axes_` holds it; amplitudes are in the effects' values.
+    """
+    from twin.calibration.lag import make_X
+
+    log = as_log(make_X(time_s, temperature_c, run))
+    out = np.empty((log.time_s.size, len(axes)))
+    for a, entry in enumerate(axes):
+        effects = _make([(e["name"], e["values"]) for e in entry["effects"]])
+        comp = Composition(effects)
+        inputs = comp.with_die_temperature(_inputs(log, entry["applied_g"]))
+        coef = np.asarray(entry["coef_mg"], float)
+        drift = (np.polyval(coef[::-1], inputs.die_c - reference_c) - coef[0]) * 1e-3
+        for contrib in comp.evaluate(inputs).values():
+            drift = drift + contrib.output_g(inputs.applied_g)
+        out[:, a] = drift
+    return out
+
+
+class ComposedCompensator(CompensatorBase):
+    """Static cubic in the die temperature plus library effects, fitted per axis.
+
+    Parameters
+    ----------
+    effects : tuple of str, or dict axis → tuple of str
+        Registered effect names (plugins included once imported) added to every axis, or per axis
+        (``{"x": ("stress_relaxation",), "y": ("thermal_gradient",)}``) as ``twin compare`` names them.
+    degree : int
+        Degree of the static curve in ``T_die − reference_c``.
+    reference_c : float
+        Expansion point [°C].
+
+    Attributes
+    ----------
+    axes_ : list of dict
+        Per axis the fitted static coefficients [mg/°C^k], the effects with their fitted values,
+        and the training RMS [mg].
+    """
+
+    rate_dependent = True
+
+    def __init__(self, effects=("stress_relaxation",), degree: int = 3, reference_c: float = 35.0):
+        self.effects = effects
+        self.degree = degree
+        self.reference_c = reference_c
+
+    def _names(self, axis: str) -> list[str]:
+        named = self.effects.get(axis, ()) if isinstance(self.effects, dict) else self.effects
+        return [TEMPERATURE_SLOT] + [n for n in dict.fromkeys(named) if n != TEMPERATURE_SLOT]
+
+    def fit(self, X, y, mask=None):
+        """Fit each axis on the rows of ``mask``; the effects run over every row of ``X``. Returns self."""
+        log = as_log(X)
+        keep = train_mask(y, log.time_s.size, mask)
+        y = np.asarray(y, float)
+        self.axes_ = []
+        for a, axis in enumerate(AXES):
+            try:
+                effects = [get_effect(n)({}) for n in self._names(axis)]
+            except Exception as exc:  # an unknown name: say which axis asked for it
+                raise TwinError(f"axis {axis}: {exc}") from None
+            applied = float(np.median(y[keep, a]))
+            effects, coef, rms = self._fit_axis(effects, log, y[:, a], keep, applied)
+            self.axes_.append({"axis": axis, "coef_mg": to_mg_per_c(coef[: self.degree + 1]).tolist(),
+                               "applied_g": applied, "train_rms_mg": rms,
+                               "effects": [{"name": e.name, "values": {k: float(v) for k, v in e.values.items()}}
+                                           for e in effects]})
+        return self
+
+    def _fit_axis(self, effects, log, y, keep, applied):
+        def solve(effs):
+            F, names = _columns(effs, log, applied, self.degree, self.reference_c)
+            # the amplitudes stay inside their physical bounds (the effect refuses values outside)
+            bounds = [lo_hi(e, amp) for e, amp in names]
+            lo = np.r_[np.full(self.degree + 1, -np.inf), [b[0] for b in bounds]]
+            hi = np.r_[np.full(self.degree + 1, np.inf), [b[1] for b in bounds]]
+            coef = fit_bounded_linear(F[keep], y[keep], lo, hi)
+            r = y[keep] - F[keep] @ coef
+            return float(r @ r), coef, names
+
+        slots = [(i, p) for i, e in enumerate(effects) for p in e.parameters
+                 if p.role == "nonlinear" and p.free and len(p.grid) > 1]
+        for _ in range(2 if len(slots) > 1 else 1):  # coordinate search over each effect's own grid
+            for i, p in slots:
+                # the lower bound too: a log without the effect (a zero lag) must be able to reach it
+                grid = sorted(set(p.grid) | {effects[i].values[p.name], p.bounds[0]})
+                sse = [solve(_with(effects, i, p.name, v))[0] for v in grid]
+                k = int(np.argmin(sse))
+                lo, hi = max(grid[max(k - 1, 0)], p.bounds[0], 1e-9), min(grid[min(k + 1, len(grid) - 1)], p.bounds[1])
+                best = grid[k]
+                if hi > lo:
+                    res = minimize_scalar(lambda lv: solve(_with(effects, i, p.name, float(np.exp(lv))))[0],
+                                          bounds=(np.log(lo), np.log(hi)), method="bounded", options={"xatol": 1e-3})
+                    if res.fun <= sse[k]:
+                        best = float(np.exp(res.x))
+                effects = _with(effects, i, p.name, best)
+        sse, coef, names = solve(effects)
+        d = self.degree + 1
+        for j, (name, amp) in enumerate(names):  # the amplitudes live in the effects, as compare writes them
+            i = next(k for k, e in enumerate(effects) if e.name == name)
+            effects = _with(effects, i, amp, float(np.clip(coef[d + j], lo_hi(name, amp)[0], lo_hi(name, amp)[1])))
+        return effects, coef, float(np.sqrt(sse / keep.sum()) * 1e3)
+
+    @property
+    def coef_mg_(self) -> np.ndarray:
+        return np.array([e["coef_mg"] for e in self.axes_])
+
+    def predict(self, X) -> np.ndarray:
+        """Modelled reading [g], (n, 3): level plus the composed drift."""
+        log = as_log(X)
+        drift = composed_drift_g(self.axes_, self.reference_c, log.time_s, log.temperature_c, log.run)
+        return drift + self.coef_mg_[:, 0] * 1e-3
+
+    def equation(self) -> str:
+        """Per axis the static curve and each effect with its fitted values."""
+        lines = []
+        for e in self.axes_:
+            terms = ", ".join(f"{x['name']}(" + ", ".join(f"{k}={v:.4g}" for k, v in x["values"].items()
+                                                         if k != "reference_c") + ")" for x in e["effects"])
+            lines.append(f"{e['axis']}: cubic in T_die about {self.reference_c:g} °C "
+                         f"[{', '.join(f'{c:+.4g}' for c in e['coef_mg'])}] mg/°C^k + {terms}")
+        return "\n".join(lines)
+
+    def effect_names(self) -> dict[str, list[str]]:
+        """Per axis the drift effects composed (the temperature slot left out)."""
+        return {e["axis"]: [x["name"] for x in e["effects"] if x["name"] != TEMPERATURE_SLOT] for e in self.axes_}
+
+
+def composed_notes(validation: ValidationResult, fitted: dict) -> tuple[str, ...]:
+    """Per composed method and axis: the effects composed and its held-out RMS beside the lag-aware
+    twin's, i.e. whether what compare named helps a compensation on data it was not fitted on."""
+    out = []
+    for name, est in fitted.items():
+        if not isinstance(est, ComposedCompensator) or name not in validation.methods:
+            continue
+        mine = validation.rms_mg(name)
+        other = validation.rms_mg("twin") if "twin" in validation.methods else None
+        for a, (axis, effects) in enumerate(est.effect_names().items()):
+            text = (f"{name} {axis}: {' + '.join(['static cubic', 'die lag'] + effects)} leaves {mine[a]:.2f} mg "
+                    "held out")
+            if other is not None:
+                text += (f", the lag-aware twin {other[a]:.2f} mg: " + ("the composed effects help here" if mine[a] <
+                         other[a] else "the composed effects do not improve on the lag and rate term held out"))
+            out.append(text + "; apply it with twin apply --method " + repr(name) + " (not yet exported to C)")
+    return tuple(out)
+
+
+def effects_named_by_compare(doc, source: str) -> dict[int, dict[str, tuple[str, ...]]]:
+    """Per IMU instance and axis, the effects a ``twin compare --axes … --json`` result named.
+
+    Raises
+    ------
+    TwinError
+        Naming ``source`` and what was expected, when ``doc`` is not such a result.
+    """
+    imus = doc.get("imus") if isinstance(doc, dict) else None
+    if not isinstance(imus, list) or not imus:
+        raise TwinError(f"{source}: no 'imus'; expected the JSON of twin compare … --axes x,y,z --json")
+    out = {}
+    for k, imu in enumerate(imus):
+        axes = imu.get("axes") if isinstance(imu, dict) else None
+        instance = imu.get("instance") if isinstance(imu, dict) else None
+        if not isinstance(axes, dict) or isinstance(instance, bool) or not isinstance(instance, int):
+            raise TwinError(f"{source}: imus[{k}]: expected an 'instance' and per-axis results under 'axes'")
+        named = {}
+        for axis, result in axes.items():
+            selected = result.get("selected") if isinstance(result, dict) else None
+            if axis not in AXES or not isinstance(selected, list) or not all(isinstance(n, str) for n in selected):
+                raise TwinError(f"{source}: imus[{k}].axes.{axis}: expected an axis x|y|z with a 'selected' list of "
+                                "effect names")
+            named[axis] = tuple(selected)
+        out[instance] = named
+    return out
+
+
+def lo_hi(effect: str, parameter: str) -> tuple[float, float]:
+    return next(p.bounds for p in get_effect(effect).parameters if p.name == parameter)
+
+
+def _with(effects: list, i: int, name: str, value: float) -> list:
+    out = list(effects)
+    out[i] = out[i].with_values(**{name: value})
+    return out
