@@ -14,6 +14,8 @@ plausibility checks all call it.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from scipy.optimize import minimize_scalar
 
@@ -22,6 +24,9 @@ from twin.calibration.models import AXES, CompensatorBase, poly_columns, to_mg_p
 from twin.diagnosis.linalg import fit_bounded_linear
 from twin.effects import Composition, EffectInputs, get_effect
 from twin.errors import TwinError
+
+if TYPE_CHECKING:
+    from twin.calibration.validate import ValidationResult
 
 TEMPERATURE_SLOT = "thermal_lag"
 
