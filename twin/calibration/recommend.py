@@ -97,7 +97,7 @@ def recommend(validation: ValidationResult, protocol: Protocol, candidates: list
     eligible = [v for v in verdicts if v.eligible]
     if not eligible:
         return Recommendation(None, "no candidate was validated", tuple(verdicts))
-    best = min(eligible, key=lambda v: float(np.sum(np.square(_pooled(validation, v.method, v.folds)))))
+    best = min(eligible, key=lambda v: float(np.sum(np.square(validation.rms_mg(v.method, "overall", v.folds)))))
     others = [v for v in verdicts if v.method != best.method and not v.eligible]
     if best.method == reference:
         why = f"{reference}: the cubic, " + ("; ".join(v.reason for v in others) if others else
@@ -106,11 +106,6 @@ def recommend(validation: ValidationResult, protocol: Protocol, candidates: list
         why = (f"{best.method}: lowest held-out RMS on the folds that validate it "
                f"({', '.join(best.folds)}), at most {best.worst_ratio:.2f}× the cubic on any of them and any axis")
     return Recommendation(best.method, why, tuple(verdicts))
-
-
-def _pooled(validation: ValidationResult, method: str, folds: tuple[str, ...]) -> np.ndarray:
-    hits = [s for s in validation.scores if s.method == method and s.test == "overall" and s.fold in folds]
-    return np.sqrt(sum(np.square(s.rms_mg) * s.n for s in hits) / sum(s.n for s in hits))
 
 
 def _verdict(validation: ValidationResult, protocol: Protocol, method: str, rate_dependent: bool, reference: str,
@@ -130,7 +125,7 @@ def _verdict(validation: ValidationResult, protocol: Protocol, method: str, rate
                                                                             1e-12) for f in usable])
     worst = float(ratios.max())
     k, a = np.unravel_index(int(np.argmax(ratios)), ratios.shape)
-    pooled = tuple(float(v) for v in _pooled(validation, method, usable))
+    pooled = tuple(float(v) for v in validation.rms_mg(method, "overall", usable))
     if worst > 1 + tolerance:
         why = (f"{method}: {100 * (worst - 1):.0f} % worse than the cubic on {AXES[a]} in fold '{usable[k]}' "
                f"(the rule allows {100 * tolerance:g} %)")

@@ -31,6 +31,20 @@ def _table(v, unit: str = "mg") -> str:
     return f"<table>{head}{rows}{floor}</table>{note}"
 
 
+def _ledger(c: ImuCalibration) -> str:
+    """Held-out RMS per axis as physics is added (static cubic → the twin's lag and rate term → the
+    composed effects), pooled over the folds that both heat and cool, so every row is validated alike."""
+    folds = tuple(name for name, both in c.fold_directions if both)
+    if not folds:
+        return "<p>No fold both heats and cools: the twin's lag and rate term are not validated on this data.</p>"
+    order = [m for m in ("px4", "ardupilot", "polynomial", "twin") if m in c.validation.methods]
+    order += [m for m in c.validation.methods if m not in order and not m.endswith(AS_APPLIED)]
+    rows = "".join(f"<tr><td>{html.escape(m)}</td>" + "".join(f"<td>{x:.3f}</td>" for x in c.validation.rms_mg(
+        m, "overall", folds)) + "</tr>" for m in order if any(s.method == m and s.fold in folds for s in c.validation.scores))
+    return (f"<h3>Held-out ledger: the error as physics is added</h3><p>Pooled over {html.escape(', '.join(folds))}.</p>"
+            "<table><tr><th>model</th>" + "".join(f"<th>{a} [mg]</th>" for a in AXES) + f"</tr>{rows}</table>")
+
+
 def _quality(c: ImuCalibration) -> str:
     """What was fitted, and what was excluded and why, per log."""
     out = []
@@ -68,6 +82,7 @@ def write_calibration_report(directory: Path, calibrations: list[ImuCalibration]
             parts.extend(f"<p>Not the default: {html.escape(v.reason)}</p>" for v in c.recommendation.verdicts
                          if not v.eligible)
         parts.append(_quality(c))
+        parts.append(_ledger(c))
         parts.append(_table(c.validation))
         parts.extend(f"<p>{html.escape(n)}</p>" for n in c.validation.notes + c.notes)
         parts.extend(f"<p><b>flagged</b> (not recommended, not exported without --force): {html.escape(r)}</p>"

@@ -57,9 +57,10 @@ class ValidationResult:
     def methods(self) -> list[str]:
         return list(dict.fromkeys(s.method for s in self.scores))
 
-    def rms_mg(self, method: str, test: str = "overall", fold: str | None = None) -> np.ndarray:
-        """RMS [mg] per axis of ``method`` on ``test`` (pooled over folds unless ``fold`` is given)."""
-        hits = [s for s in self.scores if s.method == method and s.test == test and fold in (None, s.fold)]
+    def rms_mg(self, method: str, test: str = "overall", fold: str | tuple[str, ...] | None = None) -> np.ndarray:
+        """RMS [mg] per axis of ``method`` on ``test``, pooled over every fold, the folds named, or one."""
+        folds = (fold,) if isinstance(fold, str) else fold
+        hits = [s for s in self.scores if s.method == method and s.test == test and (folds is None or s.fold in folds)]
         if not hits:
             raise TwinError(f"no score for method {method!r}, test {test!r}, fold {fold!r}")
         sse = sum(np.square(s.rms_mg) * s.n for s in hits)

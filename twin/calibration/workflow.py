@@ -112,6 +112,7 @@ class ImuCalibration:
     quality: tuple[LogQuality, ...] = ()  # per log: which rows were still and used, what was excluded and why
     board_orientation: int | None = None  # ArduPilot AHRS_ORIENTATION of the logs (IMU messages rotated by it)
     recommendation: Recommendation | None = None  # the default of apply and the C export, and why
+    fold_directions: tuple[tuple[str, bool], ...] = ()  # per fold: does its training both heat and cool
 
     def heldout_rms_mg(self, method: str) -> np.ndarray:
         """Held-out RMS [mg] per axis of ``method``, pooled over folds and test branches."""
@@ -327,7 +328,7 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
                                                            "for instances 0..2 only; no ArduPilot method",))
     return ImuCalibration(first.instance, device, tuple(log.source for log in logs), int(time_s.size), span, rate,
                           protocol.name, validation, fitted, orientations, flags, notes, gyro, qualities, rotation,
-                          recommendation)
+                          recommendation, tuple((f.name, f.both_directions) for f in protocol.folds))
 
 
 def as_applied(models: dict) -> dict:
