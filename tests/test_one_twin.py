@@ -7,6 +7,8 @@ calibrate never saw, against the PX4 cubic fitted on the same rows.
 """
 
 import json
+import shutil
+import subprocess
 
 import numpy as np
 import pytest
@@ -145,17 +147,17 @@ def test_folds_know_whether_their_training_rows_heat_and_cool():
     assert [f.name.startswith("forward: second half") for f in two.folds] == [True]
 
 
-def _relaxing_log(seed: int, noise_mg: float = 0.3):
+def _relaxing_log(seed: int, noise_mg: float = 0.3, step_s: float = 5.0):
     """Two chamber cycles at two ramp rates; truth per axis: a cubic plus a Maxwell relaxation term."""
     from sim.drift import maxwell_relaxation
 
     rng = np.random.default_rng(seed)
-    t = np.arange(0.0, 9000.0 + 2 * 5400.0, 5.0)
+    t = np.arange(0.0, 9000.0 + 2 * 5400.0, step_s)
     # one cycle of 150 min, then two of 90 min: two ramp rates, the temperature continuous throughout
     T = 25 + 30 * np.where(t < 9000, np.sin(2 * np.pi * t / 9000.0), np.sin(2 * np.pi * (t - 9000) / 5400.0))
     dT = T - 35.0
     truth = {"k": np.array([0.8, -0.5, 1.2]), "tau_s": 3000.0}
-    relax = maxwell_relaxation(T - 25.0, 5.0, truth["tau_s"])[:, None] * truth["k"] * 1e-3
+    relax = maxwell_relaxation(T - 25.0, step_s, truth["tau_s"])[:, None] * truth["k"] * 1e-3
     accel = np.column_stack([0.02 * dT * 1e-3 + 0.001, -0.03 * dT * 1e-3, -1 + 2e-4 * dT ** 2 * 1e-3]) + relax
     return t, T, accel + rng.normal(0, noise_mg * 1e-3, accel.shape), truth
 
@@ -188,7 +190,7 @@ def test_compare_named_effects_are_composed_per_axis_applied_and_refused_for_c(t
     from twin.calibration.deploy import correction_g
     from twin.calibration.lag import make_X
 
-    t, T, accel, _ = _relaxing_log(seed=5)
+    t, T, accel, _ = _relaxing_log(seed=5, step_s=15.0)
     log = tmp_path / "table.csv"
     np.savetxt(log, np.column_stack([t, T, accel]), delimiter=",", header="time_s,temp_c,ax,ay,az", comments="")
     cols = ["--time-col", "time_s", "--temperature-col", "temp_c", "--x-col", "ax", "--y-col", "ay", "--z-col", "az"]
@@ -197,9 +199,11 @@ def test_compare_named_effects_are_composed_per_axis_applied_and_refused_for_c(t
                                                                       "y": {"selected": []},
                                                                       "z": {"selected": ["stress_relaxation"]}}}]}))
     cal = tmp_path / "cal.json"
-    code, out, err = run(["calibrate", str(log), *cols, "--effects-from", str(finding), "-o", str(cal)])
+    code, out, err = run(["calibrate", str(log), *cols, "--effects-from", str(finding), "--with-effect", "aging_drift",
+                          "-o", str(cal)])
     assert code == 0, err
     assert "compared x: static cubic + die lag + stress_relaxation" in out and "compared y: static cubic + die lag leaves" in out
+    assert "the C header cannot (aging_drift)" in out
     entry = json.loads(cal.read_text())["imus"][0]
     stored = entry["methods"]["compared"]
     assert [[e["name"] for e in ax["effects"]] for ax in stored["axes"]] == [
@@ -214,7 +218,48 @@ def test_compare_named_effects_are_composed_per_axis_applied_and_refused_for_c(t
                           "compared", "-o", str(tmp_path / "applied.csv")])
     assert code == 0, err
     code, _, err = run(["firmware", str(cal), "--format", "c", "--method", "compared", "-o", str(tmp_path / "c.h")])
-    assert code == 2 and "cannot run yet" in err and not (tmp_path / "c.h").exists()
+    assert code == 0 and "twin_composed_update" in (tmp_path / "c.h").read_text(), err
+    # an effect a flight controller cannot evaluate (a device's age) has no C form: one line, no file
+    code, _, err = run(["firmware", str(cal), "--format", "c", "--method", "twin+aging_drift", "-o",
+                        str(tmp_path / "aging.h")])
+    assert code == 2 and "'aging_drift' has no C form" in err and err.count("\n") == 1, err
+    assert not (tmp_path / "aging.h").exists()
+
+
+@pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
+@pytest.mark.parametrize("real,tolerance_ug", [
+    ("double", 1e-6),  # float64 against float64: rounding only
+    # float32 state: a lag's dead band is ulp(T)/(2(1 − e)), 1 mK at 55 °C for τ = 3000 s at 5-s steps,
+    # times the largest amplitude here (≈ 1 mg/°C): about 1 µg, three hundred times below the noise
+    ("float", 1.0),
+])
+def test_composed_c_header_compiled_matches_apply(tmp_path, real, tolerance_ug):
+    from test_lag_header import MAIN_C
+    from twin.calibration.correction import correction_g
+    from twin.firmware import G0_M_S2
+    from twin.firmware.composed_header import composed_c_header
+
+    t, T, _, _ = _relaxing_log(seed=4)
+    values = [{"thermal_lag": {"tau_s": 40.0, "tau2_s": 0.0, "tc_mg_per_c": 0.8},
+               "stress_relaxation": {"k1_mg_per_c": 0.8, "tau_s": 3000.0, "k2_mg_per_c": 0.2, "tau2_s": 20000.0,
+                                     "reference_c": 25.0},
+               "thermal_gradient": {"coef_mg_per_c_per_min": -1.5, "tau_s": 300.0},
+               "thermal_hysteresis": {"k_mg_per_c": 0.3, "half_width_c": 2.0},
+               "warmup": {"amplitude_mg": 1.2, "tau_s": 200.0}}] * 3
+    data = {"kind": "ComposedCompensator", "reference_c": 35.0,
+            "axes": [{"axis": ax, "applied_g": 0.0, "coef_mg": [5.0, 0.3 * sign, -2e-3, 1e-5],
+                      "effects": [{"name": n, "values": v} for n, v in values[i].items()]}
+                     for i, (ax, sign) in enumerate(zip("xyz", (1, -1, 2)))]}
+    (tmp_path / "lag.h").write_text(composed_c_header(data, prefix="twin_lag", real=real))
+    (tmp_path / "main.c").write_text(MAIN_C.replace("TWIN_LAG_N_AXES", "3"))
+    subprocess.run(["cc", "-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror", "-o", "main", "main.c", "-lm"],
+                   cwd=tmp_path, check=True, capture_output=True)
+    stdin = "".join(f"{int(round(a * 1e6))} {float(b)!r}\n" for a, b in zip(t, T))
+    out = np.loadtxt(subprocess.run([str(tmp_path / "main"), "us"], input=stdin, capture_output=True, text=True,
+                                    check=True).stdout.splitlines())
+    assert out[0, 0] == 1 and np.all(out[1:, 0] == 0)  # started once, then stepped
+    applied_g = correction_g(data, t, T)  # what twin apply subtracts
+    assert np.max(np.abs(out[:, 1:] / G0_M_S2 - applied_g)) * 1e6 <= tolerance_ug
 
 
 def _columns(d):

@@ -184,6 +184,12 @@ class ComposedCompensator(CompensatorBase):
                          f"[{', '.join(f'{c:+.4g}' for c in e['coef_mg'])}] mg/°C^k + {terms}")
         return "\n".join(lines)
 
+    def without_c_form(self) -> list[str]:
+        """The composed effects the C header cannot run (``twin.firmware.composed_header.SUPPORTED``)."""
+        from twin.firmware.composed_header import SUPPORTED
+
+        return sorted({x["name"] for e in self.axes_ for x in e["effects"] if x["name"] not in SUPPORTED})
+
     def effect_names(self) -> dict[str, list[str]]:
         """Per axis the drift effects composed (the temperature slot left out)."""
         return {e["axis"]: [x["name"] for x in e["effects"] if x["name"] != TEMPERATURE_SLOT] for e in self.axes_}
@@ -204,7 +210,9 @@ def composed_notes(validation: ValidationResult, fitted: dict) -> tuple[str, ...
             if other is not None:
                 text += (f", the lag-aware twin {other[a]:.2f} mg: " + ("the composed effects help here" if mine[a] <
                          other[a] else "the composed effects do not improve on the lag and rate term held out"))
-            out.append(text + "; apply it with twin apply --method " + repr(name) + " (not yet exported to C)")
+            missing = est.without_c_form()
+            out.append(text + (f"; twin apply --method {name!r} runs it, the C header cannot ({', '.join(missing)})"
+                               if missing else f"; twin apply and the C export (--method {name!r}) run it"))
     return tuple(out)
 
 

@@ -362,9 +362,9 @@ def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | N
     elif data.get("kind") == "firmware":
         text = c_header(_firmware_cal(data, name), sample_rate_hz or entry["sample_rate_hz"])
     elif data.get("kind") == "ComposedCompensator":
-        raise CalibrationDocumentError(f"method {name!r} composes library effects, which the C header cannot run yet "
-                                       "(it runs lags, a rate term and polynomials); export 'twin' or a polynomial, "
-                                       "or apply it with twin apply")
+        from twin.firmware.composed_header import composed_c_header
+
+        text = composed_c_header(data)
     else:
         from twin.firmware import lag_aware_c_header
 

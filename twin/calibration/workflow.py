@@ -315,9 +315,10 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
             gyro.flags["ardupilot"].append(frame)
     if orientations:
         orientations["flags"] = tcso_flags(orientations, limits)
-    # composed library effects run in twin apply, not yet in the C header: the ledger shows them, the default is exportable
+    # the default is one the C header can run: a composed twin with an effect of time alone (aging) is not
     candidates = [m for m in dict.fromkeys(DEPLOYABLE["c"] + tuple(extra_methods or ()))
-                  if m in fitted and not flags.get(m) and not isinstance(models[m], ComposedCompensator)]
+                  if m in fitted and not flags.get(m) and not (isinstance(models[m], ComposedCompensator)
+                                                                and fitted[m].without_c_form())]
     rate_dependent = {m for m in candidates if getattr(models[m], "rate_dependent", False)}
     recommendation = recommend(validation, protocol, candidates, rate_dependent)
     read = tuple(dict.fromkeys(n for log in logs for n in log.notes))  # what the readers dropped or noticed
