@@ -47,7 +47,7 @@ SERIES_BELOW_H = 0.25
 SERIES_TERMS = {"float": 7, "double": 13}
 
 
-def _literal(value: float, real: str) -> str:
+def c_literal(value: float, real: str) -> str:
     if real == "float":
         return c_float(value)
     text = repr(float(value))
@@ -56,7 +56,7 @@ def _literal(value: float, real: str) -> str:
 
 def _table(rows, real: str, notes) -> str:
     rows = list(rows)
-    return "\n".join("    {" + ", ".join(_literal(v, real) for v in row) + "}" + ("," if i < len(rows) - 1 else " ")
+    return "\n".join("    {" + ", ".join(c_literal(v, real) for v in row) + "}" + ("," if i < len(rows) - 1 else " ")
                      + f"  /* {note} */" for i, (row, note) in enumerate(zip(rows, notes)))
 
 
@@ -81,11 +81,11 @@ def _split(value: float, real: str) -> tuple[float, float]:
     return hi, float(np.float32(value - hi))
 
 
-def _series(coefficients, real: str) -> str:
+def series_text(coefficients, real: str) -> str:
     """``h * (c1 + h * (c2 + ...))``: Σ_k c_k h^k by Horner."""
-    expr = _literal(coefficients[-1], real)
+    expr = c_literal(coefficients[-1], real)
     for c in reversed(coefficients[:-1]):
-        expr = f"{_literal(c, real)} + h * ({expr})"
+        expr = f"{c_literal(c, real)} + h * ({expr})"
     return f"h * ({expr})"
 
 
@@ -177,21 +177,21 @@ def lag_aware_c_header(params: dict, sample_rate_hz: float | None = None, *, pre
     rate = [_split(b * MG_TO_M_S2 if i >= 0 else 0.0, real) for b, i in zip(m["rate_mg_per_c"], rate_index)]
     n_terms = SERIES_TERMS[real]
     fact = [math.factorial(k + 1) for k in range(n_terms + 1)]
-    b0_series = _series([(-1) ** (k + 1) / fact[k] for k in range(1, n_terms + 1)], real)
-    b1_series = _series([(-1) ** (k + 1) * k / fact[k] for k in range(1, n_terms + 1)], real)
+    b0_series = series_text([(-1) ** (k + 1) / fact[k] for k in range(1, n_terms + 1)], real)
+    b1_series = series_text([(-1) ** (k + 1) * k / fact[k] for k in range(1, n_terms + 1)], real)
     units = ", ".join(["0 (level left out)", "m/s^2/degC"] + [f"m/s^2/degC^{k}" for k in range(2, n_coeff)])
     lag_notes = ", ".join(f"{t:g} s" for t in taus) or "none"
     ints = ", ".join
 
     def row(values):
-        return ", ".join(_literal(v, real) for v in values)
+        return ", ".join(c_literal(v, real) for v in values)
 
     slots = f"{up}_LAG_SLOTS"
     nominal, fixed = "", ""
     if rate_hz is not None:
         nominal = f"""
-#define {up}_SAMPLE_RATE_HZ {_literal(rate_hz, real)}
-#define {up}_NOMINAL_DT_S {_literal(1.0 / rate_hz, real)}"""
+#define {up}_SAMPLE_RATE_HZ {c_literal(rate_hz, real)}
+#define {up}_NOMINAL_DT_S {c_literal(1.0 / rate_hz, real)}"""
         fixed = f"""
 /* Fixed-rate convenience: the step taken as {up}_NOMINAL_DT_S. Prefer {prefix}_update with the
  * sample's timestamp: a clock {rate_hz:g} Hz only on average makes the lags drift by the jitter. */
@@ -240,8 +240,8 @@ typedef {real} {r};
 
 /* TREF = tref_c + tref_lo_c, coeff + coeff_lo and rate_coeff + rate_coeff_lo: float pairs, so that
  * rounding the constants to {real} costs nothing against the final rounding of the correction. */
-static const {r} {prefix}_tref_c = {_literal(tref_hi, real)};
-static const {r} {prefix}_tref_lo_c = {_literal(tref_lo, real)};
+static const {r} {prefix}_tref_c = {c_literal(tref_hi, real)};
+static const {r} {prefix}_tref_lo_c = {c_literal(tref_lo, real)};
 static const {r} {prefix}_coeff[{up}_N_AXES][{up}_N_COEFF] = {{
 {_table([[hi for hi, _ in row] for row in coeff], real, AXES)}
 }};
@@ -288,7 +288,7 @@ static inline void {prefix}_init({prefix}_state *state)
  * q = (1 - e)/h > e, has none either. */
 static inline void {prefix}_hold_coefficients({r} h, {r} *b0, {r} *b1)
 {{
-    if (h < ({r}){_literal(SERIES_BELOW_H, real)}) {{
+    if (h < ({r}){c_literal(SERIES_BELOW_H, real)}) {{
         *b0 = {b0_series};
         *b1 = {b1_series};
     }} else {{
