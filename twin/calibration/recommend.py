@@ -56,9 +56,21 @@ class Recommendation:
     method: str | None
     reason: str
     verdicts: tuple[Verdict, ...]
+    cubic_rms_mg: tuple[float, float, float] | None = None  # the cubic on the default's folds, pooled
+
+    def custom_firmware_gain(self) -> str | None:
+        """What only custom firmware removes: the default against the cubic PX4 and ArduPilot run."""
+        mine = next((v for v in self.verdicts if v.method == self.method), None)
+        if mine is None or mine.rms_mg is None or self.cubic_rms_mg is None or mine.worst_ratio == 1.0:
+            return None
+        share = [100 * (1 - m / c) if c > 0 else 0.0 for m, c in zip(mine.rms_mg, self.cubic_rms_mg)]
+        return (f"only custom firmware removes this: {self.method} leaves "
+                + " / ".join(f"{v:.2f}" for v in mine.rms_mg) + " mg held out where the cubic PX4 and ArduPilot run "
+                + "leaves " + " / ".join(f"{v:.2f}" for v in self.cubic_rms_mg) + " mg ("
+                + " / ".join(f"{-s:+.0f} %" for s in share) + ")")
 
     def to_json(self) -> dict:
-        return {"method": self.method, "reason": self.reason,
+        return {"method": self.method, "reason": self.reason, "custom_firmware_gain": self.custom_firmware_gain(),
                 "verdicts": {v.method: {"folds": list(v.folds), "eligible": v.eligible, "reason": v.reason,
                                         "rms_mg": dict(zip(AXES, v.rms_mg)) if v.rms_mg else None,
                                         "worst_ratio_to_cubic": v.worst_ratio} for v in self.verdicts}}
@@ -105,7 +117,8 @@ def recommend(validation: ValidationResult, protocol: Protocol, candidates: list
     else:
         why = (f"{best.method}: lowest held-out RMS on the folds that validate it "
                f"({', '.join(best.folds)}), at most {best.worst_ratio:.2f}× the cubic on any of them and any axis")
-    return Recommendation(best.method, why, tuple(verdicts))
+    cubic = tuple(float(v) for v in validation.rms_mg(reference, "overall", best.folds))
+    return Recommendation(best.method, why, tuple(verdicts), cubic)
 
 
 def _verdict(validation: ValidationResult, protocol: Protocol, method: str, rate_dependent: bool, reference: str,
