@@ -483,3 +483,15 @@ def test_hdf5_logs_with_boolean_times_or_fractional_runs_are_one_line(tmp_path, 
         f["test/power_on"] = np.zeros(n, bool)
     shutil.copy(MODEL / "ok_tiny.yaml", tmp_path / "ok_tiny.yaml")
     refused(tmp_path, ["compare", "ok_tiny.yaml", "log.h5", "--json", "o.json"], fragment)
+
+
+def test_a_repeated_key_is_refused_with_its_line_not_dropped(fleet_dir):
+    """YAML and JSON loaders keep the last of a repeated key in silence: a fleet lost a unit that way."""
+    spec = fleet_spec(fleet_dir, "scenario: ok_tiny.yaml\nunits:\n  u1: logs/u1.csv\n  u1: logs/u2.csv\n")
+    refused(fleet_dir, ["fleet", spec, "-o", "out"], "f.yaml:4: key 'u1' appears twice in one mapping (first at line 3)")
+    text = (fleet_dir / "ok_tiny.yaml").read_text()
+    (fleet_dir / "twice.yaml").write_text("seed: 1\n" + text if text.startswith("seed:") else text + "\nname: a\nname: b\n")
+    refused(fleet_dir, ["run", "twice.yaml", "-o", "o.h5"], "appears twice in one mapping")
+    doc = CAL.read_text()
+    (fleet_dir / "cal.json").write_text(doc.replace('"samples":', '"samples": 1, "samples":', 1))
+    refused(fleet_dir, ["firmware", "cal.json", "--format", "px4", "-o", "o.params"], "key 'samples' appears twice")

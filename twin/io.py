@@ -117,13 +117,23 @@ def read_json(path: str | Path, what: str, error: type[Exception]):
     import json
 
     text = read_text(path, what, error)
+
+    def unique(pairs):  # json keeps the last of a repeated key in silence: a hand edit could hide
+        keys = [k for k, _ in pairs]
+        twice = next((k for k in keys if keys.count(k) > 1), None)
+        if twice is not None:
+            raise ValueError(f"key {twice!r} appears twice in one object; expected each key once")
+        return dict(pairs)
+
     try:
-        return json.loads(text)
+        return json.loads(text, object_pairs_hook=unique)
     except json.JSONDecodeError as exc:
         raise error(f"{path}:{exc.lineno}: {what} is not JSON ({exc.msg})") from None
     except RecursionError:
         raise error(f"{path}: {what} is nested too deep to read; expected the document a twin command wrote") from None
-    except ValueError as exc:  # an integer of more than 4300 digits
+    except ValueError as exc:  # a repeated key, or an integer of more than 4300 digits
+        if "appears twice" in str(exc):
+            raise error(f"{path}: {what}: {exc}") from None
         raise error(f"{path}: {what} holds a value JSON readers refuse ({' '.join(str(exc).split())[:120]})") from None
 
 

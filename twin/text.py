@@ -124,12 +124,40 @@ def check_yaml_limits(text: str, path: str) -> None:
         return  # the parser's own message comes from safe_load, with its line
 
 
+def check_duplicate_keys(text: str, path: str) -> None:
+    """Refuse a mapping that holds the same key twice: YAML loaders keep the last one in silence,
+    so a repeated unit id or parameter would drop the first without a word."""
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError:
+        return  # the parser's own message comes from safe_load, with its line
+    seen, todo = set(), [root] if root is not None else []
+    while todo:
+        node = todo.pop()
+        if id(node) in seen:  # an alias: the same node again, already checked
+            continue
+        seen.add(id(node))
+        if isinstance(node, yaml.MappingNode):
+            first: dict = {}
+            for key, value in node.value:
+                if isinstance(key, yaml.ScalarNode) and key.tag != "tag:yaml.org,2002:merge":
+                    k = (key.tag, key.value)
+                    if k in first:
+                        raise ScenarioError(f"{path}:{key.start_mark.line + 1}: key {key.value!r} appears twice in one "
+                                            f"mapping (first at line {first[k]}); expected each key once")
+                    first[k] = key.start_mark.line + 1
+                todo += [key, value]
+        elif isinstance(node, yaml.SequenceNode):
+            todo += node.value
+
+
 def load_yaml_mapping(text: str, path: str, what: str) -> tuple[dict, dict[tuple, int]]:
     """Parse YAML that must be a mapping; return it with its key-path → line map.
 
     Raises :class:`ScenarioError` with ``path:line: malformed YAML: ...`` or ``path: <what>, got list``.
     """
     check_yaml_limits(text, path)
+    check_duplicate_keys(text, path)
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
