@@ -495,3 +495,30 @@ def test_a_repeated_key_is_refused_with_its_line_not_dropped(fleet_dir):
     doc = CAL.read_text()
     (fleet_dir / "cal.json").write_text(doc.replace('"samples":', '"samples": 1, "samples":', 1))
     refused(fleet_dir, ["firmware", "cal.json", "--format", "px4", "-o", "o.params"], "key 'samples' appears twice")
+
+
+def test_json_never_names_a_file_the_report_or_ledger_writes(tmp_path):
+    (tmp_path / "s.yaml").write_text((MODEL / "ok_tiny.yaml").read_text())
+    (tmp_path / "log.csv").write_text(LOG_ROWS)
+    refused(tmp_path, ["compare", "s.yaml", "log.csv", "--report", "rep", "--json", "rep/report.html"],
+            "--json names a file the report writes (report.html)")
+    refused(tmp_path, ["compare", "s.yaml", "log.csv", "--json", "ledger.jsonl"], "the ledger writes")
+
+
+def test_warnings_on_the_way_to_an_error_are_not_printed_before_its_line(capsys):
+    import warnings
+
+    import typer
+
+    from twin.cli.common import guard
+    from twin.errors import TwinError
+
+    with pytest.raises(typer.Exit):
+        with guard():
+            np.array([1.0]) / np.array([0.0])  # NumPy's "divide by zero encountered" RuntimeWarning
+            warnings.warn("a library's own warning", UserWarning)
+            raise TwinError("the reason")
+    err = capsys.readouterr().err
+    assert err == "twin: error: the reason\n", err
+    with pytest.warns(UserWarning, match="kept"), guard():  # after success they are shown as before
+        warnings.warn("kept", UserWarning)

@@ -107,14 +107,24 @@ def _check_writable(out: Path) -> None:
 
 @contextmanager
 def guard(inputs=(), outputs=()) -> Iterator[None]:
-    """Check the outputs against the inputs, then run the body: our errors and OS errors end in one line."""
-    try:
-        check_outputs(inputs, outputs)
-        yield
-    except TwinError as exc:
-        fail(str(exc))
-    except OSError as exc:
-        fail(f"{exc.filename or ''}: {exc.strerror or exc}")
+    """Check the outputs against the inputs, then run the body: our errors and OS errors end in one line.
+
+    Warnings raised on the way (a NumPy division on a malformed column) are held back: after an
+    error the one line stands alone; after success they are shown as usual.
+    """
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        try:
+            check_outputs(inputs, outputs)
+            yield
+        except TwinError as exc:
+            fail(str(exc))
+        except OSError as exc:
+            fail(f"{exc.filename or ''}: {exc.strerror or exc}")
+    for w in caught:
+        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
 def column_map(columns: Path | None, **overrides):

@@ -12,6 +12,23 @@ from twin.cli.common import JsonOpt, app, column_map, emit_json, guard, parse_ax
 from twin.errors import TwinError
 
 
+def _json_apart_from_report(json_out: str | None, report: Path | None) -> None:
+    """--json never names a file the report (or the ledger beside the JSON) writes: the second write
+    would replace the first, and the run would still exit 0."""
+    if json_out in (None, "-"):
+        return
+    from twin.diagnosis.discover_report import PLUGIN_NAME
+    from twin.reporting.compare_report import LEDGER
+
+    target = Path(json_out).resolve()
+    owned = {"report.html", LEDGER, PLUGIN_NAME}
+    in_report = report is not None and (target.parent == report.resolve() or (
+        target.parent.parent == report.resolve() and target.parent.name.startswith("imu")))
+    if target.name == LEDGER or (in_report and target.name in owned):
+        raise TwinError(f"{json_out}: --json names a file the {'report' if in_report else 'ledger'} writes "
+                        f"({target.name}); choose another name")
+
+
 @app.command()
 def compare(
     scenario: Annotated[Path, typer.Argument(help="scenario YAML: its twin, device.sensor and test_plan")],
@@ -50,6 +67,7 @@ def compare(
     with guard(inputs=inputs, outputs=[None if json_out == "-" else json_out, discover_plugin]):
         if discover_plugin is not None and not discover:
             raise TwinError("--discover-plugin: needs --discover")
+        _json_apart_from_report(json_out, report)
         cmap = column_map(columns, time=time_col, temperature=temperature_col, output=output_col, time_unit=time_unit,
                           temperature_unit=temperature_unit, output_unit=output_unit, output_scale=output_scale,
                           skip_lines=skip_lines, delimiter=delimiter)
