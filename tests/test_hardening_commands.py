@@ -522,3 +522,13 @@ def test_warnings_on_the_way_to_an_error_are_not_printed_before_its_line(capsys)
     assert err == "twin: error: the reason\n", err
     with pytest.warns(UserWarning, match="kept"), guard():  # after success they are shown as before
         warnings.warn("kept", UserWarning)
+
+
+def test_fleet_outputs_never_replace_its_scenario_and_a_folder_ledger_or_odd_name_stops_it_first(fleet_dir):
+    (fleet_dir / "out").mkdir()
+    shutil.copy(fleet_dir / "ok_tiny.yaml", fleet_dir / "out" / "table.csv")  # a scenario named like the table
+    refused(fleet_dir, ["fleet", "logs/*.csv", "-o", "out", "--scenario", "out/table.csv"], "overwrite an input")
+    (fleet_dir / "out2" / "units.jsonl").mkdir(parents=True)
+    refused(fleet_dir, ["fleet", "logs/*.csv", "-o", "out2", "--scenario", "ok_tiny.yaml"], "is a directory")
+    os.rename(fleet_dir / "logs" / "u2.csv", os.path.join(os.fsencode(fleet_dir / "logs"), b"\xffu2.csv"))
+    refused(fleet_dir, ["fleet", "logs/*.csv", "-o", "out3", "--scenario", "ok_tiny.yaml"], "is not valid UTF-8")

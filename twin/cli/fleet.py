@@ -41,7 +41,9 @@ def fleet(
             raise_twin(f"{output}: the output folder holds the fleet's logs; choose another folder")
         # --json checked now, not after every unit ran: never over an input or the fleet's own files
         own = [output / name for name in ("units.jsonl", ".lock", *FOLDER_OUTPUTS)]
-        check_outputs([*inputs, spec, fs.scenario, *own], [None if json_out == "-" else json_out])
+        # and the fleet's own files never over an input (a --scenario named out/table.csv was replaced), nor a
+        # folder where a file goes (units.jsonl as a folder failed after the first unit)
+        check_outputs([*inputs, spec, fs.scenario], [*own, None if json_out == "-" else json_out])
         with tqdm(total=len(fs.units), desc="units", unit="unit", file=sys.stderr, disable=None) as bar:
             run = run_fleet(fs, output, workers, executor, scheduler, progress=lambda r: bar.update(1))
         pop = population(run.records, fs.outlier_threshold)

@@ -108,6 +108,14 @@ def discover_units(pattern, base: Path, where: str) -> list[Unit]:
             raise FleetError(f"{where}: two units are named {u.id!r} ({seen[u.id].files[0]} and {u.files[0]}); "
                              "give them a mapping of unit ids to files")
         seen[u.id] = u
+    for u in units:  # a name the fleet's UTF-8 table, JSON and HTML cannot hold fails after every unit ran
+        for name in (u.id, *map(str, u.files)):
+            try:
+                name.encode("utf-8")
+            except UnicodeEncodeError:
+                raw = name.encode("utf-8", "surrogateescape").decode("ascii", "backslashreplace")
+                raise FleetError(f"{where}: unit file or id '{raw}' is not valid UTF-8; rename it (the fleet's "
+                                 "table, JSON and report are UTF-8)") from None
     return sorted(units, key=lambda u: u.id)
 
 
