@@ -532,3 +532,13 @@ def test_fleet_outputs_never_replace_its_scenario_and_a_folder_ledger_or_odd_nam
     refused(fleet_dir, ["fleet", "logs/*.csv", "-o", "out2", "--scenario", "ok_tiny.yaml"], "is a directory")
     os.rename(fleet_dir / "logs" / "u2.csv", os.path.join(os.fsencode(fleet_dir / "logs"), b"\xffu2.csv"))
     refused(fleet_dir, ["fleet", "logs/*.csv", "-o", "out3", "--scenario", "ok_tiny.yaml"], "is not valid UTF-8")
+
+
+def test_fleet_simulate_draws_every_unit_before_writing_any(fleet_dir):
+    """A normal draw whose tail goes below a bound used to fail at the second unit, leaving the first
+    unit's log, truth.json and fleet.yaml, and named '<fleet unit unit0001>'."""
+    (fleet_dir / "fs.yaml").write_text("base: ok_tiny.yaml\nunits: 40\nseed: 3\n"
+                                       "vary:\n  chamber.lumped.die_tau_s: {normal: [5.0, 5.0]}\n")
+    line = refused(fleet_dir, ["fleet-simulate", "fs.yaml", "-o", "sim"], "fs.yaml: unit unit0001 as drawn: "
+                   "chamber.lumped.die_tau_s")
+    assert "<fleet unit" not in line

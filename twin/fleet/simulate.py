@@ -222,12 +222,29 @@ def draw_unit(fs: FleetScenario, i: int) -> tuple[dict, dict]:
     return data, truth
 
 
-def unit_scenario(fs: FleetScenario, i: int):
-    """The validated scenario of unit ``i`` (a bad path or value names the fleet scenario's unit)."""
+def unit_scenario(fs: FleetScenario, i: int, label: str | None = None):
+    """The validated scenario of unit ``i`` (``label`` names it in an error)."""
     from twin.model.scenario import parse_scenario
 
     data, _ = draw_unit(fs, i)
-    return parse_scenario(yaml.safe_dump(data, sort_keys=False), f"<fleet unit {fs.unit_id(i)}>")
+    return parse_scenario(yaml.safe_dump(data, sort_keys=False), label or f"<fleet unit {fs.unit_id(i)}>")
+
+
+def check_every_unit(fs: FleetScenario, source: str) -> None:
+    """Draw and validate every unit's scenario before anything is written: an ordinary draw that
+    gives one unit an invalid value (a normal's tail below a bound) stops the fleet here, not
+    after earlier units' logs were written."""
+    import re
+
+    from twin.errors import TwinError
+
+    for i in range(fs.units):
+        label = f"<fleet unit {fs.unit_id(i)}>"
+        try:
+            unit_scenario(fs, i, label)
+        except TwinError as exc:  # the line of a generated YAML says nothing: the unit and its key do
+            detail = re.sub(rf"^{re.escape(label)}(:\d+)?: ", "", str(exc))
+            raise FleetError(f"{source}: unit {fs.unit_id(i)} as drawn: {detail}") from None
 
 
 def simulate_unit(fs: FleetScenario, i: int, path: str) -> str:
@@ -258,6 +275,7 @@ def simulate_fleet(fleet_scenario: str | Path, out_dir: str | Path, workers: int
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise FleetError(f"{out}: the output must be a folder, and this is a file")
+    check_every_unit(fs, str(fleet_scenario))
     logs = out / "logs"
     logs.mkdir(parents=True, exist_ok=True)
     remove_temporaries(out)
