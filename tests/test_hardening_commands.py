@@ -542,3 +542,35 @@ def test_fleet_simulate_draws_every_unit_before_writing_any(fleet_dir):
     line = refused(fleet_dir, ["fleet-simulate", "fs.yaml", "-o", "sim"], "fs.yaml: unit unit0001 as drawn: "
                    "chamber.lumped.die_tau_s")
     assert "<fleet unit" not in line
+
+
+def test_render_fem_refuses_what_twin_package_refuses(tmp_path):
+    text = (ROOT / "scenarios" / "package_fem.yaml").read_text()
+    assert "cell_offset_um: 300.0" in text
+    (tmp_path / "off.yaml").write_text(text.replace("cell_offset_um: 300.0",
+                                                    "cell_offset_um: 600.0\n      spring_half_span_um: 900.0"))
+    for args in (["package", "off.yaml"], ["render", "off.yaml", "--fem", "-o", "o.png"]):
+        refused(tmp_path, args, "must lie on the die")
+
+
+def test_ctrl_c_swallowed_inside_the_renderer_still_leaves_no_file(tmp_path):
+    """VTK and the GIF encoder run in C and can swallow the KeyboardInterrupt of a SIGINT: the
+    writer records the signal and honours it before the rename."""
+    import signal
+
+    from twin.reporting.fem_render import _write as write_atomically  # noqa: PLC2701 - the unit under test
+
+    def renderer(tmp):
+        tmp.write_bytes(b"GIF89a")
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            import time
+
+            time.sleep(0.05)
+        except KeyboardInterrupt:
+            pass  # swallowed, as a C renderer may
+
+    with pytest.raises(KeyboardInterrupt):
+        write_atomically(tmp_path / "sweep.gif", renderer)
+    assert list(tmp_path.iterdir()) == []
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

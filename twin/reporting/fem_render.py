@@ -67,13 +67,33 @@ def _draw(p, grid, clim, title):
 
 
 def _write(path: Path, write):
+    """Run ``write(tmp)`` and rename the result onto ``path``; Ctrl-C at any moment leaves no file.
+
+    The renderer runs in C (VTK, the GIF encoder) and can swallow the KeyboardInterrupt a SIGINT
+    raises while it is inside, so the signal is also recorded and honoured before the rename.
+    """
+    import signal
+    import threading
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp{path.suffix}")
+    interrupted: list[int] = []
+
+    def on_sigint(signum, frame):
+        interrupted.append(signum)
+        raise KeyboardInterrupt
+
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, on_sigint) if main else None
     try:
         write(tmp)
+        if interrupted:
+            raise KeyboardInterrupt
         os.replace(tmp, path)
     finally:
+        if main:
+            signal.signal(signal.SIGINT, previous)
         tmp.unlink(missing_ok=True)
     return path
 
@@ -127,11 +147,10 @@ def render_fem_sweep(sol, temperatures_c, path: str | Path, *, exaggeration: flo
 def render_package(loaded, output: str | Path, *, temperature_c: float | None = None, sweep_c=None,
                    exaggeration: float = 50.0, progress=None) -> dict:
     """``twin render --fem``: the scenario's package_fem design solved and drawn (PNG or sweep GIF)."""
-    from sim.fem.package_stack import solve_stack
-    from twin.reporting.package_report import package_effect
+    from twin.reporting.package_report import package_effect, solve_checked
 
     effect, _ = package_effect(loaded)
-    sol = solve_stack(effect.design())
+    sol = solve_checked(effect)
     if sweep_c is None:
         render_fem_png(sol, temperature_c, output, exaggeration=exaggeration)
         temps = [float(temperature_c)]

@@ -30,15 +30,29 @@ def _excursion_per_c(t: np.ndarray, y: np.ndarray, reference_c: float) -> float:
     return float(ratio[np.argmax(np.abs(ratio))])
 
 
+def solve_checked(effect):
+    """The package solved, with every check ``twin package`` applies (anchors on the die, a valid
+    stack), so ``twin render --fem`` never draws a design ``twin package`` refuses."""
+    from sim.fem.comb_on_substrate import anchor_motion
+    from sim.fem.package_stack import solve_stack
+
+    try:
+        sol = solve_stack(effect.design())
+        anchor_motion(sol, effect.layout())
+    except ValueError as exc:
+        raise ModelError(f"package_fem: {exc}") from None
+    return sol
+
+
 def package_prediction(effect, part=None) -> dict:
     """Warpage, curvature, TCOff [mg/°C], TCSo [ppm/°C] (least-squares slope over −40…85 °C and the
     largest excursion from the reference), the TCOff split by material, and the datasheet figures."""
     from sim.fem.comb_on_substrate import package_drift, slope_per_c
-    from sim.fem.package_stack import die_surface, solve_stack
+    from sim.fem.package_stack import die_surface
 
     ref = effect.values["reference_c"]
+    sol = solve_checked(effect)
     try:
-        sol = solve_stack(effect.design())
         drift = package_drift(sol, effect.layout(), effect.geometry(), SWEEP_C, "H", ref)
         surf = die_surface(sol, np.array(WARPAGE_AT_C))
     except ValueError as exc:
