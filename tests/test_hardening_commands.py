@@ -574,3 +574,20 @@ def test_ctrl_c_swallowed_inside_the_renderer_still_leaves_no_file(tmp_path):
         write_atomically(tmp_path / "sweep.gif", renderer)
     assert list(tmp_path.iterdir()) == []
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_ulog_with_ten_thousand_empty_messages_is_refused_at_once(tmp_path):
+    """Unknown zero-length messages in the definitions section made pyulog resynchronise byte by
+    byte, rereading kilobytes per byte: calibrate sat in the parser for minutes."""
+    import struct
+    import time
+
+    from logfixtures import chamber_run, write_ulog
+
+    data = write_ulog(tmp_path / "ok.ulg", chamber_run(n=60)).read_bytes()
+    cut = 16 + 3 + struct.unpack("<H", data[16:18])[0]  # after the flag-bits message
+    (tmp_path / "empty.ulg").write_bytes(data[:cut] + struct.pack("<HB", 0, ord("D")) * 10_000 + data[cut:])
+    (tmp_path / "ok.ulg").unlink()
+    start = time.perf_counter()
+    refused(tmp_path, ["calibrate", "empty.ulg", "-o", "c.json"], f"corrupt at byte {cut} (message type 'D' of 0 bytes")
+    assert time.perf_counter() - start < 10.0

@@ -30,6 +30,34 @@ MIN_GYRO_OVERLAP = 0.9
 TOPICS_SHOWN = 8
 
 
+# the message types pyulog reads in the definitions section (ULog spec: flag bits, format, info,
+# info multiple, parameter, parameter default) and those that end it (subscription, logging)
+DEFINITION_TYPES, SECTION_END = set(b"BFIMPQ"), set(b"ALC")
+CRAWL_SIZE = 10_000  # pyulog treats a larger unknown message as corrupt too
+
+
+def _check_definitions(path: Path) -> None:
+    """Walk the definitions section as pyulog will. An unknown message type of size 0 (or > 10 kB)
+    makes pyulog resynchronise one byte at a time, rereading up to 64 kB per byte: 10,000 such
+    messages kept it busy for minutes. Refuse that section at once, naming the byte."""
+    with open(path, "rb") as f:
+        head = f.read(16)
+        offset = 16
+        while len(head) == 16:
+            raw = f.read(3)
+            if len(raw) < 3:
+                return
+            size, kind = int.from_bytes(raw[:2], "little"), raw[2]
+            if kind in SECTION_END:
+                return
+            if kind not in DEFINITION_TYPES and (kind == 0 or size == 0 or size > CRAWL_SIZE):
+                raise MeasurementError(f"{path}: not a readable ULog file: its definitions section is corrupt at byte "
+                                       f"{offset} (message type {chr(kind)!r} of {size} bytes, expected a "
+                                       "definition or the first subscription)")
+            f.seek(size, 1)
+            offset += 3 + size
+
+
 def _parse(path: Path, topics: list[str] | None):
     """pyulog's parse of ``path`` (only ``topics`` when given), its failures as one line."""
     import struct
@@ -37,6 +65,7 @@ def _parse(path: Path, topics: list[str] | None):
     from pyulog import ULog
     from pyulog.exceptions import ULogException
 
+    _check_definitions(path)
     try:
         with contextlib.redirect_stdout(io.StringIO()):  # pyulog prints its warnings on corrupt data
             return ULog(str(path), topics)
