@@ -38,16 +38,16 @@ def tofu(tmp_path_factory):
     d = tmp_path_factory.mktemp("tofu")
     (d / "cols.yaml").write_text(COLUMNS)
     lines = TOFU.read_text().splitlines()
-    _twin("apply", *_calibrated(d, "whole", lines, None), "--method", "px4", "-o", d / "whole.csv")
-    table = np.genfromtxt(d / "whole.csv", delimiter=",", names=True)
-    branches = [b for b in split_branches(table["time_s"], table["temperature_c"]) if b.kind != "dwell"]
+    (d / "log.tsv").write_text("\n".join(lines) + "\n")
+    table = np.genfromtxt(TOFU, delimiter="\t", names=True)
+    branches = [b for b in split_branches((table["timestamp"] - table["timestamp"][0]) * 1e-6,
+                                          table["imutemperature"]) if b.kind != "dwell"]
     assert [b.kind for b in branches] == ["cooling", "heating", "cooling"]
     return d, lines, branches
 
 
 def _calibrated(d, name, lines, rows):
     """Write the rows (all when None) as a log, calibrate it; return (calibration, the whole log, columns)."""
-    (d / "log.tsv").exists() or (d / "log.tsv").write_text("\n".join(lines) + "\n")
     part = d / f"{name}.tsv"
     part.write_text("\n".join([lines[0]] + [lines[1 + i] for i in (rows if rows is not None else
                                                                     range(len(lines) - 1))]) + "\n")
@@ -60,6 +60,7 @@ def _scored(d, cal, method, rows) -> np.ndarray:
     out = d / "applied.csv"
     _twin("apply", cal, d / "log.tsv", "--columns", d / "cols.yaml", "-o", out, *(["--method", method] if method else []))
     table = np.genfromtxt(out, delimiter=",", names=True)
+    assert table.size == len((d / "log.tsv").read_text().splitlines()) - 1  # the rows of the log, in order
     entry = json.loads(cal.read_text())["imus"][0]
     m = entry["methods"][method or entry["recommended"]["c"]]
     # the method's own level (what it was fitted to read when still): the constant the
