@@ -56,7 +56,11 @@ def read_calibration(path: str | Path) -> dict:
         raise CalibrationDocumentError(f"{path}: not a '{SCHEMA}' document of schema_version {SCHEMA_VERSION}")
     if not doc.get("imus"):
         raise CalibrationDocumentError(f"{path}: key 'imus' is empty; expected at least one calibrated IMU")
-    check_document(doc, str(path))
+    try:
+        check_document(doc, str(path))
+    except (AttributeError, TypeError, KeyError, IndexError, ValueError) as exc:  # a shape no check foresaw
+        raise CalibrationDocumentError(f"{path}: malformed calibration document ({type(exc).__name__}: "
+                                       f"{' '.join(str(exc).split())[:160]}); expected what twin calibrate wrote") from None
     return doc
 
 
@@ -173,6 +177,8 @@ def _check_slot(data: dict, instance: int, entry: dict, where: str) -> None:
         raise CalibrationDocumentError(f"{where}.firmware: expected the firmware calibration")
     _numbers({k: block.get(k) for k in ("temperature_c", "coefficients", "method_parameters")}, f"{where}.firmware")
     params = block.get("method_parameters") or {}
+    if not isinstance(params, dict):
+        raise CalibrationDocumentError(f"{where}.firmware.method_parameters: got {params!r}, expected a mapping")
     slot = instance + (1 if block.get("method") == "ardupilot" else 0)
     if params.get("instance") != slot:
         raise CalibrationDocumentError(f"{where}.firmware.method_parameters.instance: got {params.get('instance')!r}, "

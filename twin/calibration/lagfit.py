@@ -16,6 +16,7 @@ from twin.calibration.lag import ThermalLog, lagged_c
 from twin.calibration.models import poly_columns
 
 Z95 = 1.959963984540054
+LAG_CACHE = 64  # full-length lagged temperatures kept: the grid's and the current refinement's
 
 
 @dataclass(frozen=True)
@@ -54,9 +55,11 @@ class Profile:
 
     def lag(self, tau_s: float) -> np.ndarray:
         key = round(float(tau_s), 9)
-        if key not in self._lags:
-            if len(self._lags) > 4096:  # refinements only revisit recent values
-                self._lags.clear()
+        if key in self._lags:
+            self._lags[key] = self._lags.pop(key)  # most recent last
+        else:
+            if len(self._lags) >= LAG_CACHE:  # refinements revisit recent values: drop the oldest
+                self._lags.pop(next(iter(self._lags)))
             self._lags[key] = lagged_c(self.log, key)
         return self._lags[key]
 

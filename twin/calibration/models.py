@@ -138,7 +138,8 @@ class PolynomialCompensator(CompensatorBase):
             for d in range(1, top + 1):
                 F, sse = poly_columns(dT, d), np.zeros(3)
                 for b in blocks:
-                    tr = np.setdiff1d(np.arange(dT.size), b)
+                    tr = np.ones(dT.size, bool)  # the complement as a mask: no sorted set difference per fit
+                    tr[b] = False
                     c, *_ = np.linalg.lstsq(F[tr], Y[tr], rcond=None)
                     sse += ((Y[b] - F[b] @ c) ** 2).sum(axis=0)
                 cv[:, d - 1] = np.sqrt(sse / dT.size) * 1e3
