@@ -91,7 +91,10 @@ def run_one(args):
     n_today = today.size
     protocol = protocol_as_used(t[:n_today], T[:n_today])
     v = validate(models, t[:n_today], T[:n_today], y[:n_today], protocol)
-    rule = recommend(v, protocol, ["twin", "polynomial", "px4"], {"twin"})
+    fitted_composed = models["composed"].clone().fit(make_X(t[:n_today], T[:n_today]), y[:n_today])
+    missing = fitted_composed.without_c_form()
+    rule = recommend(v, protocol, ["twin", "polynomial", "px4"], {"twin"},
+                     undeployable={"composed": missing} if missing and "composed" in v.methods else None)
     X, mask = make_X(t, T), np.arange(t.size) < n_today
     noise = case.noise_g[run0]
     noise_rms = float(np.sqrt(np.mean((noise[~mask] - noise[mask].mean()) ** 2)) * 1e3)

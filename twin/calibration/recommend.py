@@ -1,16 +1,19 @@
 """Which compensation a vehicle gets by default: the rule, stated once.
 
 The default of ``twin apply`` and of the C export is the method with the lowest held-out error on
-the folds that can validate it, and never one that is worse than the PX4 cubic on any such fold
-and axis by more than ``tolerance`` (2 %). A rate-dependent method (a lag, a gradient, a
-relaxation: anything with thermal state) is validated only by folds whose training rows both heat
-and cool — on one direction at one ramp rate, its rate term is absorbed by the static curve and
+the folds that can validate it, if it beats the PX4 cubic there by more than ``tolerance``
+(2 %), and never one that is worse than the cubic on any such fold and axis by more than that. A
+rate-dependent method (a lag, a gradient, a relaxation: anything with thermal state) is validated
+only by folds whose training rows both heat and cool — on one direction at one ramp rate, its rate term is absorbed by the static curve and
 says nothing about the other direction. A static polynomial is validated by any fold. When no
-method qualifies beyond the cubic, the cubic is the default, with the reason.
+method qualifies beyond the cubic, the cubic is the default, with the reason; so too when a
+validated model that no firmware can run (one with a drift in time) beats the best candidate held
+out: the candidates' thermal terms then carry a drift that will not repeat.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,7 +85,8 @@ def validating_folds(protocol: Protocol, rate_dependent: bool) -> tuple[str, ...
 
 
 def recommend(validation: ValidationResult, protocol: Protocol, candidates: list[str], rate_dependent: set[str],
-              reference: str = REFERENCE, tolerance: float = TOLERANCE) -> Recommendation:
+              reference: str = REFERENCE, tolerance: float = TOLERANCE,
+              undeployable: dict[str, list[str]] | None = None) -> Recommendation:
     """Apply the rule (module docstring) to ``candidates`` (deployable, unflagged method names).
 
     Parameters
@@ -98,6 +102,11 @@ def recommend(validation: ValidationResult, protocol: Protocol, candidates: list
     reference : str
         The cubic the rule compares against; when it is not among the scored methods the first
         candidate scored on every fold stands in, and the reason says so.
+    undeployable : dict of str → list of str, optional
+        Validated methods no firmware can run, with the effects that stop it (a drift in time since
+        the device was made, say). When one of them beats every candidate held out, the log holds
+        something the candidates absorbed into their thermal terms; that does not carry to another
+        day, so the default is the cubic.
     """
     scored = set(validation.methods)
     if reference not in scored:
@@ -108,17 +117,45 @@ def recommend(validation: ValidationResult, protocol: Protocol, candidates: list
     verdicts = [_verdict(validation, protocol, m, m in rate_dependent, reference, tolerance) for m in candidates]
     eligible = [v for v in verdicts if v.eligible]
     if not eligible:
+        if reference in candidates:  # when in doubt, the cubic
+            return Recommendation(reference, f"{reference}: the cubic, as no candidate could be validated on this data",
+                                  tuple(verdicts))
         return Recommendation(None, "no candidate was validated", tuple(verdicts))
-    best = min(eligible, key=lambda v: float(np.sum(np.square(validation.rms_mg(v.method, "overall", v.folds)))))
+    best = min(eligible, key=lambda v: _power(validation, v.method, v.folds))
     others = [v for v in verdicts if v.method != best.method and not v.eligible]
+    cubic = next((v for v in verdicts if v.method == reference), None)
+    margin = (1 - tolerance) ** 2  # on the summed squares: "better by more than the tolerance"
+    if best is not cubic and cubic is not None and \
+            _power(validation, best.method, best.folds) > margin * _power(validation, reference, best.folds):
+        # when in doubt, the cubic: a gain inside the tolerance is no evidence
+        others.append(dataclasses.replace(best, eligible=False, reason=f"{best.method}: not better than the cubic "
+                                          f"by more than {100 * tolerance:g} % held out"))
+        best = cubic
+    for name, effects in (undeployable or {}).items():
+        common = tuple(f for f in best.folds if any(s.method == name and s.fold == f and s.test == "overall"
+                                                    for s in validation.scores))
+        if best is not cubic and cubic is not None and common and \
+                _power(validation, name, common) < margin * _power(validation, best.method, common):
+            why = (f"{reference}: the cubic, because {name} (with {', '.join(effects)}, which no firmware can run) "
+                   f"beats {best.method} held out: the log drifts in a way {best.method}'s thermal terms absorbed, "
+                   "and that does not carry to another day")
+            return Recommendation(reference, why, tuple(verdicts), _pooled(validation, reference, cubic.folds))
     if best.method == reference:
         why = f"{reference}: the cubic, " + ("; ".join(v.reason for v in others) if others else
                                              "no other method does better on every validating fold")
     else:
         why = (f"{best.method}: lowest held-out RMS on the folds that validate it "
                f"({', '.join(best.folds)}), at most {best.worst_ratio:.2f}× the cubic on any of them and any axis")
-    cubic = tuple(float(v) for v in validation.rms_mg(reference, "overall", best.folds))
-    return Recommendation(best.method, why, tuple(verdicts), cubic)
+    return Recommendation(best.method, why, tuple(verdicts), _pooled(validation, reference, best.folds))
+
+
+def _power(validation: ValidationResult, method: str, folds: tuple[str, ...]) -> float:
+    """Held-out mean square summed over the axes [mg²], pooled over ``folds``."""
+    return float(np.sum(np.square(validation.rms_mg(method, "overall", folds))))
+
+
+def _pooled(validation: ValidationResult, method: str, folds: tuple[str, ...]) -> tuple[float, float, float]:
+    return tuple(float(v) for v in validation.rms_mg(method, "overall", folds))
 
 
 def _verdict(validation: ValidationResult, protocol: Protocol, method: str, rate_dependent: bool, reference: str,
