@@ -89,6 +89,36 @@ def series_text(coefficients, real: str) -> str:
     return f"h * ({expr})"
 
 
+def hold_coefficients_c(prefix: str, real: str) -> str:
+    """C of ``{prefix}_hold_coefficients(h, &b0, &b1)``: the first-order-hold coefficients over a
+    step h = dt/τ, by their Taylor series where the closed form cancels (shared by every header)."""
+    n_terms = SERIES_TERMS[real]
+    fact = [math.factorial(k + 1) for k in range(n_terms + 1)]
+    b0_series = series_text([(-1) ** (k + 1) / fact[k] for k in range(1, n_terms + 1)], real)
+    b1_series = series_text([(-1) ** (k + 1) * k / fact[k] for k in range(1, n_terms + 1)], real)
+    (exp_fn, expm1_fn), r = ("expf", "expm1f") if real == "float" else ("exp", "expm1"), f"{prefix}_real"
+    return f"""/* First-order-hold coefficients over a step of h = dt/tau >= 0 (+inf allowed):
+ * b0 = 1 - (1 - e)/h, b1 = (1 - e)/h - e, e = exp(-h). Below h = {SERIES_BELOW_H:g}, 1 - (1 - e)/h
+ * cancels (b0 ~ h/2, (1 - e)/h ~ 1), so the Taylor series, which keep full relative precision down
+ * to h = 0 (b0 = b1 = 0 there: the lag holds):
+ *   b0 = sum_k (-1)^(k+1) h^k/(k+1)! = h/2 - h^2/6 + h^3/24 - ...
+ *   b1 = sum_k (-1)^(k+1) k h^k/(k+1)! = h/2 - h^2/3 + h^3/8 - ...
+ * Above it, expm1 gives 1 - e without the cancellation of 1 - exp(-h), and b1 = q - e,
+ * q = (1 - e)/h > e, has none either. */
+static inline void {prefix}_hold_coefficients({r} h, {r} *b0, {r} *b1)
+{{
+    if (h < ({r}){c_literal(SERIES_BELOW_H, real)}) {{
+        *b0 = {b0_series};
+        *b1 = {b1_series};
+    }} else {{
+        const {r} q = -{expm1_fn}(-h) / h;
+        *b0 = ({r})1 - q;
+        *b1 = q - {exp_fn}(-h);
+    }}
+}}
+"""
+
+
 def lag_aware_c_header(params: dict, sample_rate_hz: float | None = None, *, prefix: str = "twin_lag",
                        real: str = "float") -> str:
     """C99 header text applying the lag-aware compensation ``params`` at the measured time steps.
@@ -175,10 +205,6 @@ def lag_aware_c_header(params: dict, sample_rate_hz: float | None = None, *, pre
     coeff = [[_split(c * MG_TO_M_S2 if k else 0.0, real) for k, c in enumerate(row)] for row in m["coef_mg"]]
     tref_hi, tref_lo = _split(m["reference_c"], real)
     rate = [_split(b * MG_TO_M_S2 if i >= 0 else 0.0, real) for b, i in zip(m["rate_mg_per_c"], rate_index)]
-    n_terms = SERIES_TERMS[real]
-    fact = [math.factorial(k + 1) for k in range(n_terms + 1)]
-    b0_series = series_text([(-1) ** (k + 1) / fact[k] for k in range(1, n_terms + 1)], real)
-    b1_series = series_text([(-1) ** (k + 1) * k / fact[k] for k in range(1, n_terms + 1)], real)
     units = ", ".join(["0 (level left out)", "m/s^2/degC"] + [f"m/s^2/degC^{k}" for k in range(2, n_coeff)])
     lag_notes = ", ".join(f"{t:g} s" for t in taus) or "none"
     ints = ", ".join
@@ -278,25 +304,7 @@ static inline void {prefix}_init({prefix}_state *state)
     state->started = 0;
 }}
 
-/* First-order-hold coefficients over a step of h = dt/tau >= 0 (+inf allowed):
- * b0 = 1 - (1 - e)/h, b1 = (1 - e)/h - e, e = exp(-h). Below h = {SERIES_BELOW_H:g}, 1 - (1 - e)/h
- * cancels (b0 ~ h/2, (1 - e)/h ~ 1), so the Taylor series, which keep full relative precision down
- * to h = 0 (b0 = b1 = 0 there: the lag holds):
- *   b0 = sum_k (-1)^(k+1) h^k/(k+1)! = h/2 - h^2/6 + h^3/24 - ...
- *   b1 = sum_k (-1)^(k+1) k h^k/(k+1)! = h/2 - h^2/3 + h^3/8 - ...
- * Above it, expm1 gives 1 - e without the cancellation of 1 - exp(-h), and b1 = q - e,
- * q = (1 - e)/h > e, has none either. */
-static inline void {prefix}_hold_coefficients({r} h, {r} *b0, {r} *b1)
-{{
-    if (h < ({r}){c_literal(SERIES_BELOW_H, real)}) {{
-        *b0 = {b0_series};
-        *b1 = {b1_series};
-    }} else {{
-        const {r} q = -{expm1_fn}(-h) / h;
-        *b0 = ({r})1 - q;
-        *b1 = q - {exp_fn}(-h);
-    }}
-}}
+{hold_coefficients_c(prefix, real)}
 
 /* y += b0*(u - y) + b1*(u_prev - y) by Kahan summation on the pair (hi, res), y = hi - res. */
 static inline void {prefix}_lag_step({r} *hi, {r} *res, {r} b0, {r} b1, {r} u, {r} u_prev)
