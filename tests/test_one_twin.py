@@ -283,3 +283,21 @@ def test_a_compare_result_calibrate_cannot_use_is_one_line(tmp_path, doc, expect
                                    str(tmp_path / "c.json"), "-o", str(tmp_path / "cal.json")])
     assert code == 2 and expected in err and err.count("\n") == 1, err
     assert not (tmp_path / "cal.json").exists()
+
+
+def test_when_in_doubt_the_cubic_and_a_drift_no_firmware_can_carry_sends_it_back():
+    both = ("heating", "cooling")
+    p = _protocol(a=both)
+    near = _validation({("a", "px4"): (1, 1, 1), ("a", "twin"): (0.99, 0.99, 0.99)})
+    rec = recommend(near, p, ["twin", "px4"], {"twin"})
+    assert rec.method == "px4" and "not better than the cubic by more than 2 %" in rec.reason
+    assert not {v.method: v for v in rec.verdicts}["twin"].eligible
+    clear = {("a", "px4"): (1, 1, 1), ("a", "twin"): (0.5, 0.5, 0.5)}
+    assert recommend(_validation(clear), p, ["twin", "px4"], {"twin"}).method == "twin"
+    # a composed twin with an aging drift, which no firmware runs, beats the twin held out: the twin's
+    # thermal terms absorbed part of a drift in time, which will not repeat tomorrow
+    aged = _validation({**clear, ("a", "composed"): (0.3, 0.3, 0.3)})
+    rec = recommend(aged, p, ["twin", "px4"], {"twin"}, undeployable={"composed": ["aging_drift"]})
+    assert rec.method == "px4" and "aging_drift" in rec.reason
+    level = _validation({**clear, ("a", "composed"): (0.495, 0.5, 0.5)})
+    assert recommend(level, p, ["twin", "px4"], {"twin"}, undeployable={"composed": ["aging_drift"]}).method == "twin"

@@ -128,8 +128,10 @@ def recommend(validation: ValidationResult, protocol: Protocol, candidates: list
     if best is not cubic and cubic is not None and \
             _power(validation, best.method, best.folds) > margin * _power(validation, reference, best.folds):
         # when in doubt, the cubic: a gain inside the tolerance is no evidence
-        others.append(dataclasses.replace(best, eligible=False, reason=f"{best.method}: not better than the cubic "
-                                          f"by more than {100 * tolerance:g} % held out"))
+        doubt = dataclasses.replace(best, eligible=False, reason=f"{best.method}: not better than the cubic by more "
+                                    f"than {100 * tolerance:g} % held out")
+        verdicts = [doubt if v is best else v for v in verdicts]
+        others.append(doubt)
         best = cubic
     for name, effects in (undeployable or {}).items():
         common = tuple(f for f in best.folds if any(s.method == name and s.fold == f and s.test == "overall"
