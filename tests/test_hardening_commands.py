@@ -93,7 +93,7 @@ def test_fleet_spec_not_utf8(fleet_dir):
 
 @pytest.mark.parametrize("json_target, fragment", [
     ("f.yaml", "overwrite an input"), ("logs/u1.csv", "overwrite an input"), ("ok_tiny.yaml", "overwrite an input"),
-    ("out/units.jsonl", "overwrite an input"), ("ok_tiny.yaml/x.json", "not a folder"), ("logs", "directory"),
+    ("out/units.jsonl", "two outputs name one file"), ("ok_tiny.yaml/x.json", "not a folder"), ("logs", "directory"),
 ])
 def test_fleet_json_is_checked_before_the_units_run(fleet_dir, json_target, fragment):
     """--json used to be written after every unit: over the spec, a log or the scenario (exit 0)."""
@@ -558,7 +558,7 @@ def test_ctrl_c_swallowed_inside_the_renderer_still_leaves_no_file(tmp_path):
     writer records the signal and honours it before the rename."""
     import signal
 
-    from twin.reporting.fem_render import _write as write_atomically  # noqa: PLC2701 - the unit under test
+    from twin.reporting.fem_render import write_atomically
 
     def renderer(tmp):
         tmp.write_bytes(b"GIF89a")

@@ -66,7 +66,7 @@ def _draw(p, grid, clim, title):
     p.camera.zoom(1.3)
 
 
-def _write(path: Path, write):
+def write_atomically(path: Path, write) -> Path:
     """Run ``write(tmp)`` and rename the result onto ``path``; Ctrl-C at any moment leaves no file.
 
     The renderer runs in C (VTK, the GIF encoder) and can swallow the KeyboardInterrupt a SIGINT
@@ -112,7 +112,7 @@ def render_fem_png(sol, temperature_c: float, path: str | Path, *, exaggeration:
         finally:
             p.close()
 
-    return _write(path, write)
+    return write_atomically(path, write)
 
 
 def render_fem_sweep(sol, temperatures_c, path: str | Path, *, exaggeration: float = 50.0, progress=None) -> Path:
@@ -141,7 +141,7 @@ def render_fem_sweep(sol, temperatures_c, path: str | Path, *, exaggeration: flo
         finally:
             p.close()
 
-    return _write(path, write)
+    return write_atomically(path, write)
 
 
 def render_package(loaded, output: str | Path, *, temperature_c: float | None = None, sweep_c=None,
