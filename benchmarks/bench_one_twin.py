@@ -92,7 +92,7 @@ def run_one(args):
     protocol = protocol_as_used(t[:n_today], T[:n_today])
     v = validate(models, t[:n_today], T[:n_today], y[:n_today], protocol)
     fitted_composed = models["composed"].clone().fit(make_X(t[:n_today], T[:n_today]), y[:n_today])
-    missing = fitted_composed.without_c_form()
+    missing = fitted_composed.drifts_in_time()
     rule = recommend(v, protocol, ["twin", "polynomial", "px4"], {"twin"},
                      undeployable={"composed": missing} if missing and "composed" in v.methods else None)
     X, mask = make_X(t, T), np.arange(t.size) < n_today

@@ -40,18 +40,57 @@ def _inputs(log: ThermalLog, applied_g: float) -> EffectInputs:
                         time_since_power_on_s=log.time_s - t0)
 
 
+UNIFORM = 0.05  # steps within this fraction of the median: the effects' one-step filters hold as they are
+
+
+def _on_uniform_clock(log: ThermalLog, evaluate):
+    """``evaluate(log) → (n, k)`` on an evenly sampled log, at ``log``'s own rows.
+
+    The effects filter at one step (the median). A log with gaps (rows dropped as motion) or a
+    drifting clock is evaluated on a uniform grid at the median step, its temperature linearly
+    interpolated — the first-order hold the C header integrates exactly over each measured step —
+    and the result read back at the log's times.
+    """
+    step = float(np.median(np.diff(log.time_s))) if log.time_s.size > 1 else 1.0
+    dt = np.diff(log.time_s)
+    inside = np.ones(dt.size, bool)
+    inside[[s.stop - 1 for s in log.segments()[:-1]]] = False  # a run boundary is no step
+    if not np.any(np.abs(dt[inside] - step) > UNIFORM * step):
+        return evaluate(log)
+    times, temps, runs, spans = [], [], [], []
+    for s in log.segments():
+        t = log.time_s[s]
+        grid = t[0] + step * np.arange(int(np.ceil((t[-1] - t[0]) / step - 1e-9)) + 1)
+        spans.append((s, sum(g.size for g in times), grid))
+        times.append(grid)
+        temps.append(np.interp(grid, t, log.temperature_c[s]))
+        runs.append(np.full(grid.size, log.run[s.start]))
+    values = evaluate(ThermalLog(np.concatenate(times), np.concatenate(temps), np.concatenate(runs)))
+    out = np.empty((log.time_s.size, values.shape[1]))
+    for s, start, grid in spans:
+        for j in range(values.shape[1]):
+            out[s, j] = np.interp(log.time_s[s], grid, values[start:start + grid.size, j])
+    return out
+
+
 def _columns(effects: list, log: ThermalLog, applied_g: float, degree: int, reference_c: float):
     """(n, k) design: powers of (T_die − ref)/10 °C, then each effect's screened amplitude bases [g]."""
     comp = Composition(effects)
-    inputs = comp.with_die_temperature(_inputs(log, applied_g))
-    cols, names = [poly_columns(inputs.die_c - reference_c, degree)], []
-    for e in comp.drift_effects:
-        screened = {p.name for p in e.parameters if p.role == "amplitude" and p.screen}
-        for amp, contrib in e.basis(inputs).items():
-            if amp in screened:
-                cols.append(np.broadcast_to(contrib.output_g(inputs.applied_g), (log.time_s.size,))[:, None])
-                names.append((e.name, amp))
-    return np.column_stack(cols), names
+    names: list = []
+
+    def design(on: ThermalLog) -> np.ndarray:
+        names.clear()
+        inputs = comp.with_die_temperature(_inputs(on, applied_g))
+        cols = [poly_columns(inputs.die_c - reference_c, degree)]
+        for e in comp.drift_effects:
+            screened = {p.name for p in e.parameters if p.role == "amplitude" and p.screen}
+            for amp, contrib in e.basis(inputs).items():
+                if amp in screened:
+                    cols.append(np.broadcast_to(contrib.output_g(inputs.applied_g), (on.time_s.size,))[:, None])
+                    names.append((e.name, amp))
+        return np.column_stack(cols)
+
+    return _on_uniform_clock(log, design), names
 
 
 def _make(spec: list[tuple[str, dict]]) -> list:
@@ -67,17 +106,19 @@ def composed_drift_g(axes: list[dict], reference_c: float, time_s, temperature_c
     from twin.calibration.lag import make_X
 
     log = as_log(make_X(time_s, temperature_c, run))
-    out = np.empty((log.time_s.size, len(axes)))
-    for a, entry in enumerate(axes):
-        effects = _make([(e["name"], e["values"]) for e in entry["effects"]])
-        comp = Composition(effects)
-        inputs = comp.with_die_temperature(_inputs(log, entry["applied_g"]))
-        coef = np.asarray(entry["coef_mg"], float)
-        drift = (np.polyval(coef[::-1], inputs.die_c - reference_c) - coef[0]) * 1e-3
-        for contrib in comp.evaluate(inputs).values():
-            drift = drift + contrib.output_g(inputs.applied_g)
-        out[:, a] = drift
-    return out
+
+    def drift(on: ThermalLog) -> np.ndarray:
+        out = np.empty((on.time_s.size, len(axes)))
+        for a, entry in enumerate(axes):
+            comp = Composition(_make([(e["name"], e["values"]) for e in entry["effects"]]))
+            inputs = comp.with_die_temperature(_inputs(on, entry["applied_g"]))
+            coef = np.asarray(entry["coef_mg"], float)
+            out[:, a] = (np.polyval(coef[::-1], inputs.die_c - reference_c) - coef[0]) * 1e-3
+            for contrib in comp.evaluate(inputs).values():
+                out[:, a] += contrib.output_g(inputs.applied_g)
+        return out
+
+    return _on_uniform_clock(log, drift)
 
 
 class ComposedCompensator(CompensatorBase):
@@ -189,6 +230,10 @@ class ComposedCompensator(CompensatorBase):
         from twin.firmware.composed_header import SUPPORTED
 
         return sorted({x["name"] for e in self.axes_ for x in e["effects"] if x["name"] not in SUPPORTED})
+
+    def drifts_in_time(self) -> list[str]:
+        """The composed effects no firmware runs that read no temperature: a drift in time (aging)."""
+        return [n for n in self.without_c_form() if not {"die_c", "thermometer_c"} & set(get_effect(n).reads)]
 
     def effect_names(self) -> dict[str, list[str]]:
         """Per axis the drift effects composed (the temperature slot left out)."""

@@ -361,7 +361,9 @@ def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | N
         if data.get("kind") == "firmware":
             out = cal_to_dict(_firmware_cal(data, name), provenance)
         else:
-            out = {"schema_version": SCHEMA_VERSION, "kind": "lag_aware_accel_temperature_cal", "method": name,
+            kind = "composed_accel_temperature_cal" if data.get("kind") == "ComposedCompensator" else \
+                "lag_aware_accel_temperature_cal"
+            out = {"schema_version": SCHEMA_VERSION, "kind": kind, "method": name,
                    "instance": entry["instance"], "device_id": entry["device_id"],
                    "parameters": {k: v for k, v in data.items() if k != "kind"}, "provenance": provenance}
         text = json.dumps(strict_json(out), indent=2, allow_nan=False) + "\n"

@@ -60,11 +60,12 @@ class Recommendation:
     reason: str
     verdicts: tuple[Verdict, ...]
     cubic_rms_mg: tuple[float, float, float] | None = None  # the cubic on the default's folds, pooled
+    reference: str | None = None  # the cubic's method name
 
     def custom_firmware_gain(self) -> str | None:
         """What only custom firmware removes: the default against the cubic PX4 and ArduPilot run."""
         mine = next((v for v in self.verdicts if v.method == self.method), None)
-        if mine is None or mine.rms_mg is None or self.cubic_rms_mg is None or mine.worst_ratio == 1.0:
+        if mine is None or mine.rms_mg is None or self.cubic_rms_mg is None or self.method == self.reference:
             return None
         share = [100 * (1 - m / c) if c > 0 else 0.0 for m, c in zip(mine.rms_mg, self.cubic_rms_mg)]
         return (f"only custom firmware removes this: {self.method} leaves "
@@ -121,7 +122,8 @@ def recommend(validation: ValidationResult, protocol: Protocol, candidates: list
             return Recommendation(reference, f"{reference}: the cubic, as no candidate could be validated on this data",
                                   tuple(verdicts))
         return Recommendation(None, "no candidate was validated", tuple(verdicts))
-    best = min(eligible, key=lambda v: _power(validation, v.method, v.folds))
+    shared = tuple(f for f in eligible[0].folds if all(f in v.folds for v in eligible))
+    best = min(eligible, key=lambda v: _power(validation, v.method, shared or v.folds))  # ranked alike
     others = [v for v in verdicts if v.method != best.method and not v.eligible]
     cubic = next((v for v in verdicts if v.method == reference), None)
     margin = (1 - tolerance) ** 2  # on the summed squares: "better by more than the tolerance"
@@ -141,14 +143,17 @@ def recommend(validation: ValidationResult, protocol: Protocol, candidates: list
             why = (f"{reference}: the cubic, because {name} (with {', '.join(effects)}, which no firmware can run) "
                    f"beats {best.method} held out: the log drifts in a way {best.method}'s thermal terms absorbed, "
                    "and that does not carry to another day")
-            return Recommendation(reference, why, tuple(verdicts), _pooled(validation, reference, cubic.folds))
+            vetoed = dataclasses.replace(best, eligible=False, reason=f"{best.method}: {why.split(': ', 1)[1]}")
+            verdicts = [vetoed if v is best else v for v in verdicts]
+            return Recommendation(reference, why, tuple(verdicts), _pooled(validation, reference, cubic.folds),
+                                  reference)
     if best.method == reference:
         why = f"{reference}: the cubic, " + ("; ".join(v.reason for v in others) if others else
                                              "no other method does better on every validating fold")
     else:
         why = (f"{best.method}: lowest held-out RMS on the folds that validate it "
                f"({', '.join(best.folds)}), at most {best.worst_ratio:.2f}× the cubic on any of them and any axis")
-    return Recommendation(best.method, why, tuple(verdicts), _pooled(validation, reference, best.folds))
+    return Recommendation(best.method, why, tuple(verdicts), _pooled(validation, reference, best.folds), reference)
 
 
 def _power(validation: ValidationResult, method: str, folds: tuple[str, ...]) -> float:

@@ -320,8 +320,9 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
                   if m in fitted and not flags.get(m) and not (isinstance(models[m], ComposedCompensator)
                                                                 and fitted[m].without_c_form())]
     rate_dependent = {m for m in candidates if getattr(models[m], "rate_dependent", False)}
-    undeployable = {m: est.without_c_form() for m, est in fitted.items()
-                    if isinstance(est, ComposedCompensator) and est.without_c_form() and m in validation.methods}
+    # a validated, plausible composed twin holding an effect of time alone that no firmware runs (aging)
+    undeployable = {m: est.drifts_in_time() for m, est in fitted.items() if isinstance(est, ComposedCompensator)
+                    and est.drifts_in_time() and m in validation.methods and not flags.get(m)}
     recommendation = recommend(validation, protocol, candidates, rate_dependent, undeployable=undeployable)
     read = tuple(dict.fromkeys(n for log in logs for n in log.notes))  # what the readers dropped or noticed
     read += tuple(f"IMU instance {first.instance}: {name} not fitted: {why}" for name, why in unfit.items())

@@ -14,8 +14,9 @@ Each lag is the exact response of τ dy/dt = u − y to a piecewise-linear input
 e = exp(−h), h = dt/τ), the discretisation the effect library runs (``sim.thermal.first_order_lag``);
 a lag of a lag runs it on the first lag's samples, as the library does. Effects that need what a
 flight controller does not know (the applied acceleration of a scale-factor term, a device's age)
-are refused. Arithmetic is plain ``float`` or ``double``; in float32 the lags resolve T to about
-4 µK at 50 °C, a few ng in the correction (the tests bound it).
+are refused. Arithmetic is plain ``float`` or ``double`` (``twin firmware`` writes double). A
+float32 lag without compensated summation has a dead band of ulp(T)/(2(1 − e)) per step: 1 mK for
+τ = 3000 s at 5-s steps (≈ 1 µg at 1 mg/°C), but 8 mK for τ = 7200 s at 100 Hz — use double there.
 """
 
 from __future__ import annotations
