@@ -17,7 +17,7 @@ from conftest import SHARED, run_in_process
 from twin.calibration.branches import Fold, Protocol, protocol_as_used, split_branches
 from twin.calibration.branches import TestSet as HeldOut
 from twin.calibration.recommend import TOLERANCE, recommend
-from twin.calibration.validate import Score, ValidationResult
+from twin.calibration.validate import IN_RANGE, Score, ValidationResult
 
 TOFU = SHARED / "data" / "real" / "tofupilot_imu_thermal" / "imu_raw_data.tsv"
 COLUMNS = ("time: timestamp\ntemperature: imu.temperature\nx: imu.acc.x\ny: imu.acc.y\nz: imu.acc.z\n"
@@ -93,7 +93,8 @@ def test_first_cooling_and_heating_the_default_leaves_under_0_6_of_the_cubic_on_
 
 
 def _validation(rms: dict) -> ValidationResult:
-    scores = tuple(Score(fold, m, "overall", tuple(r), 100, 0.0) for (fold, m), r in rms.items())
+    scores = tuple(Score(fold, m, test, tuple(r), 100, 0.0) for (fold, m), r in rms.items()
+                   for test in ("overall", IN_RANGE))
     return ValidationResult(scores, (0.3, 0.3, 0.3), ("px4",) * 3, {})
 
 
@@ -145,7 +146,7 @@ def test_folds_know_whether_their_training_rows_heat_and_cool():
     heating = protocol_as_used(t, np.linspace(0, 60, t.size))
     assert [f.both_directions for f in heating.folds] == [False]
     two = protocol_as_used(t[:2250], cycle[:2250])  # heat then cool: the forward fold cuts the last branch
-    assert [f.name.startswith("forward: second half") for f in two.folds] == [True]
+    assert [f.name.split(":")[0] for f in two.folds] == ["forward", "leave out"]  # each half of the last branch
 
 
 def _relaxing_log(seed: int, noise_mg: float = 0.3, step_s: float = 5.0):

@@ -217,8 +217,9 @@ def protocol_as_used(time_s, temperature_c, run=None, reverse: bool = True, min_
     1. several runs: leave one run out;
     2. leave one heating or cooling branch out, wherever the other branches still heat and cool
        over ``min_train_span_c`` each (the last branch left out is "calibrate today, fly tomorrow");
-    3. forward in time: fit everything before the middle of the last branch, test the rest of
-       it, when the rows before hold both directions;
+    3. with two branches: forward in time (fit everything before the middle of the last branch,
+       test the rest of it) and the first half of the last branch left out, each where the
+       training rows hold both directions;
     4. otherwise the one-direction folds of :func:`protocol_heating_vs_cooling`, whose training
        rows cannot tell a rate-dependent term from the static curve (``Fold.both_directions`` is
        False, and the recommendation does not trust such a term on them).
@@ -240,15 +241,18 @@ def protocol_as_used(time_s, temperature_c, run=None, reverse: bool = True, min_
                      [(labels[id(b)], b.index)], "", branches, min_train_span_c)
         if fold.both_directions:
             folds.append(fold)
-    if not folds and len(ramps) >= 2:
+    if not folds and len(ramps) >= 2:  # two branches: each half of the last one left out in turn
         last = ramps[-1]
         cut = (last.start + last.stop) // 2
-        train = np.r_[np.concatenate([o.index for o in ramps[:-1]]), np.arange(last.start, cut)]
-        fold = _fold(f"forward: second half of {labels[id(last)]}", T, train,
-                     [(f"{labels[id(last)]} from {T[cut]:.1f} °C", np.arange(cut, last.stop))], "", branches,
-                     min_train_span_c)
-        if fold.both_directions:
-            folds.append(fold)
+        earlier = np.concatenate([o.index for o in ramps[:-1]])
+        first, second = np.arange(last.start, cut), np.arange(cut, last.stop)
+        for name, train, test in ((f"forward: second half of {labels[id(last)]}", np.r_[earlier, first],
+                                   (f"{labels[id(last)]} from {T[cut]:.1f} °C", second)),
+                                  (f"leave out: first half of {labels[id(last)]}", np.r_[earlier, second],
+                                   (f"{labels[id(last)]} to {T[cut]:.1f} °C", first))):
+            fold = _fold(name, T, train, [test], "", branches, min_train_span_c)
+            if fold.both_directions:
+                folds.append(fold)
     if folds:
         return Protocol("held-out branches, both directions in training", tuple(folds), tuple(branches))
     return protocol_heating_vs_cooling(time_s, T, run=run, reverse=reverse, min_train_span_c=min_train_span_c,

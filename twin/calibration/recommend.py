@@ -1,14 +1,19 @@
 """Which compensation a vehicle gets by default: the rule, stated once.
 
 The default of ``twin apply`` and of the C export is the method with the lowest held-out error on
-the folds that can validate it, if it beats the PX4 cubic there by more than ``tolerance``
-(2 %), and never one that is worse than the cubic on any such fold and axis by more than that. A
-rate-dependent method (a lag, a gradient, a relaxation: anything with thermal state) is validated
-only by folds whose training rows both heat and cool — on one direction at one ramp rate, its rate term is absorbed by the static curve and
-says nothing about the other direction. A static polynomial is validated by any fold. When no
-method qualifies beyond the cubic, the cubic is the default, with the reason; so too when a
-validated model that no firmware can run (one with a drift in time) beats the best candidate held
-out: the candidates' thermal terms then carry a drift that will not repeat.
+the folds that can validate it, if it beats the PX4 cubic there by more than ``tolerance`` (2 %),
+and never one that is worse than the cubic on any such fold and axis by more than that. Errors are
+taken on each fold's held-out samples inside its training temperatures: a compensation is used
+within the span it was calibrated on, and outside its range PX4 clamps while the others
+extrapolate, which would judge the cubic by what it never does.
+
+A rate-dependent method (a lag, a gradient, a relaxation: anything with thermal state) is
+validated only by folds whose training rows both heat and cool — on one direction at one ramp
+rate, its rate term is absorbed by the static curve and says nothing about the other direction. A
+static polynomial is validated by any fold. When no method qualifies beyond the cubic, the cubic is
+the default, with the reason; so too when a validated model that no firmware can run (one with a
+drift in time) beats the best candidate held out: the candidates' thermal terms then carry a drift
+that will not repeat.
 """
 
 from __future__ import annotations
@@ -20,7 +25,7 @@ import numpy as np
 
 from twin.calibration.branches import Protocol
 from twin.calibration.models import AXES
-from twin.calibration.validate import ValidationResult
+from twin.calibration.validate import IN_RANGE, ValidationResult
 
 TOLERANCE = 0.02  # "worse than the cubic" means by more than this fraction, on any validating fold and axis
 REFERENCE = "px4"  # the cubic every flight controller already runs
@@ -136,7 +141,7 @@ def recommend(validation: ValidationResult, protocol: Protocol, candidates: list
         others.append(doubt)
         best = cubic
     for name, effects in (undeployable or {}).items():
-        common = tuple(f for f in best.folds if any(s.method == name and s.fold == f and s.test == "overall"
+        common = tuple(f for f in best.folds if any(s.method == name and s.fold == f and s.test == IN_RANGE
                                                     for s in validation.scores))
         if best is not cubic and cubic is not None and common and \
                 _power(validation, name, common) < margin * _power(validation, best.method, common):
@@ -158,18 +163,18 @@ def recommend(validation: ValidationResult, protocol: Protocol, candidates: list
 
 def _power(validation: ValidationResult, method: str, folds: tuple[str, ...]) -> float:
     """Held-out mean square summed over the axes [mg²], pooled over ``folds``."""
-    return float(np.sum(np.square(validation.rms_mg(method, "overall", folds))))
+    return float(np.sum(np.square(validation.rms_mg(method, IN_RANGE, folds))))
 
 
 def _pooled(validation: ValidationResult, method: str, folds: tuple[str, ...]) -> tuple[float, float, float]:
-    return tuple(float(v) for v in validation.rms_mg(method, "overall", folds))
+    return tuple(float(v) for v in validation.rms_mg(method, IN_RANGE, folds))
 
 
 def _verdict(validation: ValidationResult, protocol: Protocol, method: str, rate_dependent: bool, reference: str,
              tolerance: float) -> Verdict:
     folds = validating_folds(protocol, rate_dependent)
-    have = {s.fold for s in validation.scores if s.method == method and s.test == "overall"}
-    ref = {s.fold for s in validation.scores if s.method == reference and s.test == "overall"}
+    have = {s.fold for s in validation.scores if s.method == method and s.test == IN_RANGE}
+    ref = {s.fold for s in validation.scores if s.method == reference and s.test == IN_RANGE}
     usable = tuple(f for f in folds if f in have and f in ref)
     if not usable:
         one_way = ", ".join(sorted({d for f in protocol.folds for d in f.directions})) or "no direction"
@@ -178,11 +183,11 @@ def _verdict(validation: ValidationResult, protocol: Protocol, method: str, rate
                if rate_dependent and not any(f.both_directions for f in protocol.folds) else
                f"{method}: unvalidated: not fitted on any fold that can validate it")
         return Verdict(method, (), None, None, False, why)
-    ratios = np.array([validation.rms_mg(method, "overall", f) / np.maximum(validation.rms_mg(reference, "overall", f),
+    ratios = np.array([validation.rms_mg(method, IN_RANGE, f) / np.maximum(validation.rms_mg(reference, IN_RANGE, f),
                                                                             1e-12) for f in usable])
     worst = float(ratios.max())
     k, a = np.unravel_index(int(np.argmax(ratios)), ratios.shape)
-    pooled = tuple(float(v) for v in validation.rms_mg(method, "overall", usable))
+    pooled = tuple(float(v) for v in validation.rms_mg(method, IN_RANGE, usable))
     if worst > 1 + tolerance:
         why = (f"{method}: {100 * (worst - 1):.0f} % worse than the cubic on {AXES[a]} in fold '{usable[k]}' "
                f"(the rule allows {100 * tolerance:g} %)")

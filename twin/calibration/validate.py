@@ -19,6 +19,10 @@ from twin.errors import TwinError
 from twin.firmware import CalibrationRangeError
 
 
+IN_RANGE = "in range"  # a fold's held-out samples inside its training temperatures, pooled
+MIN_IN_RANGE = 30  # fewer in-range samples than this score no "in range" test
+
+
 @dataclass(frozen=True)
 class Score:
     """Held-out RMS of one method on one test set (``test == "overall"``: the fold's tests pooled)."""
@@ -138,6 +142,9 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
             if held.size:
                 scores.append(Score(fold.name, name, "overall", _rms(resid[held]), int(held.size),
                                     float(extrap.mean())))
+                if np.sum(~extrap) >= MIN_IN_RANGE:  # inside the fold's training temperatures
+                    scores.append(Score(fold.name, name, IN_RANGE, _rms(resid[held[~extrap]]), int(np.sum(~extrap)),
+                                        0.0))
                 floors.append(np.concatenate([noise_floor_mg(resid, t.index) for t in fold.tests]).reshape(-1, 3))
     if not scores:
         raise TwinError(f"protocol {protocol.name!r} has no held-out samples")
