@@ -591,3 +591,20 @@ def test_a_ulog_with_ten_thousand_empty_messages_is_refused_at_once(tmp_path):
     start = time.perf_counter()
     refused(tmp_path, ["calibrate", "empty.ulg", "-o", "c.json"], f"corrupt at byte {cut} (message type 'D' of 0 bytes")
     assert time.perf_counter() - start < 10.0
+
+
+def test_an_hdf5_soft_link_loop_and_a_temperature_of_1e36_are_one_line(tmp_path):
+    import h5py
+
+    with h5py.File(tmp_path / "loop.h5", "w") as f:
+        f["a"] = h5py.SoftLink("/b")
+        f["b"] = h5py.SoftLink("/a")
+    (tmp_path / "s.yaml").write_text((MODEL / "ok_tiny.yaml").read_text())
+    refused(tmp_path, ["calibrate", "loop.h5", "-o", "c.json"], "loop.h5")
+    refused(tmp_path, ["compare", "s.yaml", "loop.h5", "--json", "r.json"], "loop.h5")
+    temps = np.linspace(0.0, 40.0, 400)
+    temps[200] = 1e36  # once a LinAlgError inside the fit
+    (tmp_path / "hot.csv").write_text("time_s,temperature_c,x,y,z\n" + "".join(
+        f"{i},{t!r},0.01,0.02,-1.0\n" for i, t in enumerate(temps)))
+    refused(tmp_path, ["calibrate", "hot.csv", "--time-col", "time_s", "--temperature-col", "temperature_c",
+                       "--x-col", "x", "--y-col", "y", "--z-col", "z", "-o", "c.json"], "is not an IMU's in °C")
