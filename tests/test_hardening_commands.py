@@ -605,6 +605,6 @@ def test_an_hdf5_soft_link_loop_and_a_temperature_of_1e36_are_one_line(tmp_path)
     temps = np.linspace(0.0, 40.0, 400)
     temps[200] = 1e36  # once a LinAlgError inside the fit
     (tmp_path / "hot.csv").write_text("time_s,temperature_c,x,y,z\n" + "".join(
-        f"{i},{t!r},0.01,0.02,-1.0\n" for i, t in enumerate(temps)))
+        f"{i},{float(t)!r},0.01,0.02,-1.0\n" for i, t in enumerate(temps)))
     refused(tmp_path, ["calibrate", "hot.csv", "--time-col", "time_s", "--temperature-col", "temperature_c",
                        "--x-col", "x", "--y-col", "y", "--z-col", "z", "-o", "c.json"], "is not an IMU's in °C")
