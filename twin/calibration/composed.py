@@ -161,7 +161,7 @@ class ComposedCompensator(CompensatorBase):
         for a, axis in enumerate(AXES):
             try:
                 effects = [get_effect(n)({}) for n in self._names(axis)]
-            except Exception as exc:  # an unknown name: say which axis asked for it
+            except TwinError as exc:  # an unknown name: say which axis asked for it
                 raise TwinError(f"axis {axis}: {exc}") from None
             applied = float(np.median(y[keep, a]))
             effects, coef, rms = self._fit_axis(effects, log, y[:, a], keep, applied)
