@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from twin.calibration.branches import protocol_as_used
+from twin.calibration.composed import ComposedCompensator, composed_notes
 from twin.calibration.correction import correction_g
 from twin.calibration.document import AS_APPLIED, method_json
 from twin.calibration.lag import make_X
-from twin.calibration.composed import ComposedCompensator, composed_notes
 from twin.calibration.lagaware import LagAwareCompensator
 from twin.calibration.methods import (
     ArduPilotGyroMethod,
@@ -27,7 +27,6 @@ from twin.calibration.methods import (
 )
 from twin.calibration.models import AXES, PolynomialCompensator
 from twin.calibration.orientation import cluster_orientations, fit_offset_scale, segments_of
-from twin.calibration.recommend import Recommendation, recommend
 from twin.calibration.plausibility import (
     PlausibilityLimits,
     limits_for_part,
@@ -35,6 +34,7 @@ from twin.calibration.plausibility import (
     rate_bound_notes,
     tcso_flags,
 )
+from twin.calibration.recommend import Recommendation, recommend
 from twin.calibration.validate import ValidationResult, validate
 from twin.errors import TwinError
 from twin.firmware import CalibrationRangeError
