@@ -570,10 +570,14 @@ def test_ctrl_c_swallowed_inside_the_renderer_still_leaves_no_file(tmp_path):
         except KeyboardInterrupt:
             pass  # swallowed, as a C renderer may
 
-    with pytest.raises(KeyboardInterrupt):
-        write_atomically(tmp_path / "sweep.gif", renderer)
-    assert list(tmp_path.iterdir()) == []
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    outer = signal.signal(signal.SIGINT, signal.default_int_handler)  # Ctrl-C live, as on a terminal
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            write_atomically(tmp_path / "sweep.gif", renderer)
+        assert list(tmp_path.iterdir()) == []
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+    finally:
+        signal.signal(signal.SIGINT, outer)
 
 
 def test_a_ulog_with_ten_thousand_empty_messages_is_refused_at_once(tmp_path):

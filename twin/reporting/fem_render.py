@@ -84,7 +84,9 @@ def write_atomically(path: Path, write) -> Path:
         interrupted.append(signum)
         raise KeyboardInterrupt
 
-    main = threading.current_thread() is threading.main_thread()
+    # only where Ctrl-C is live: a process started with SIGINT ignored (nohup, a background job) keeps ignoring it
+    main = threading.current_thread() is threading.main_thread() and \
+        signal.getsignal(signal.SIGINT) is not signal.SIG_IGN
     previous = signal.signal(signal.SIGINT, on_sigint) if main else None
     try:
         write(tmp)
