@@ -111,6 +111,10 @@ def read_text(path: str | Path, what: str, error: type[Exception]) -> str:
         raise error(f"{p}: cannot read {what}: {exc.strerror or exc}") from None
 
 
+class RepeatedKeyError(ValueError):
+    """A JSON object holds one key twice."""
+
+
 def read_json(path: str | Path, what: str, error: type[Exception]):
     """The JSON value in ``path``; malformed JSON, nesting too deep for the parser, or an integer
     beyond Python's 4300-digit limit raise ``error`` in one line naming the file."""
@@ -119,11 +123,12 @@ def read_json(path: str | Path, what: str, error: type[Exception]):
     text = read_text(path, what, error)
 
     def unique(pairs):  # json keeps the last of a repeated key in silence: a hand edit could hide
-        keys = [k for k, _ in pairs]
-        twice = next((k for k in keys if keys.count(k) > 1), None)
-        if twice is not None:
-            raise ValueError(f"key {twice!r} appears twice in one object; expected each key once")
-        return dict(pairs)
+        out = dict(pairs)
+        if len(out) < len(pairs):
+            keys = [k for k, _ in pairs]
+            twice = next(k for i, k in enumerate(keys) if k in keys[:i])
+            raise RepeatedKeyError(f"key {twice!r} appears twice in one object; expected each key once")
+        return out
 
     try:
         return json.loads(text, object_pairs_hook=unique)
@@ -131,9 +136,9 @@ def read_json(path: str | Path, what: str, error: type[Exception]):
         raise error(f"{path}:{exc.lineno}: {what} is not JSON ({exc.msg})") from None
     except RecursionError:
         raise error(f"{path}: {what} is nested too deep to read; expected the document a twin command wrote") from None
-    except ValueError as exc:  # a repeated key, or an integer of more than 4300 digits
-        if "appears twice" in str(exc):
-            raise error(f"{path}: {what}: {exc}") from None
+    except RepeatedKeyError as exc:
+        raise error(f"{path}: {what}: {exc}") from None
+    except ValueError as exc:  # an integer of more than 4300 digits
         raise error(f"{path}: {what} holds a value JSON readers refuse ({' '.join(str(exc).split())[:120]})") from None
 
 

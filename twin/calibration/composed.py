@@ -19,9 +19,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from twin.calibration.lag import ThermalLog, as_log, train_mask
+from twin.calibration.lag import ThermalLog, as_log, make_X, train_mask
 from twin.calibration.models import AXES, CompensatorBase, poly_columns, to_mg_per_c
 from twin.diagnosis.linalg import fit_bounded_linear
+from twin.diagnosis.problem import amplitude_bounds
 from twin.effects import Composition, EffectInputs, get_effect
 from twin.errors import TwinError
 
@@ -51,8 +52,8 @@ def _on_uniform_clock(log: ThermalLog, evaluate):
     interpolated — the first-order hold the C header integrates exactly over each measured step —
     and the result read back at the log's times.
     """
-    step = float(np.median(np.diff(log.time_s))) if log.time_s.size > 1 else 1.0
     dt = np.diff(log.time_s)
+    step = float(np.median(dt)) if dt.size else 1.0
     inside = np.ones(dt.size, bool)
     inside[[s.stop - 1 for s in log.segments()[:-1]]] = False  # a run boundary is no step
     if not np.any(np.abs(dt[inside] - step) > UNIFORM * step):
@@ -93,6 +94,11 @@ def _columns(effects: list, log: ThermalLog, applied_g: float, degree: int, refe
     return _on_uniform_clock(log, design), names
 
 
+def reads_temperature(effect: str) -> bool:
+    """Whether an effect reads a temperature (die or thermometer), not time alone."""
+    return bool({"die_c", "thermometer_c"} & set(get_effect(effect).reads))
+
+
 def _make(spec: list[tuple[str, dict]]) -> list:
     return [get_effect(name)({}, **values) for name, values in spec]
 
@@ -103,8 +109,6 @@ def composed_drift_g(axes: list[dict], reference_c: float, time_s, temperature_c
     ``axes[a]``: ``{"coef_mg": [...], "applied_g": g, "effects": [{"name", "values"}, ...]}`` as
     :attr:`ComposedCompensator.axes_` holds it; amplitudes are in the effects' values.
     """
-    from twin.calibration.lag import make_X
-
     log = as_log(make_X(time_s, temperature_c, run))
 
     def drift(on: ThermalLog) -> np.ndarray:
@@ -175,10 +179,7 @@ class ComposedCompensator(CompensatorBase):
         def solve(effs):
             F, names = _columns(effs, log, applied, self.degree, self.reference_c)
             # the amplitudes stay inside their physical bounds (the effect refuses values outside)
-            bounds = [lo_hi(e, amp) for e, amp in names]
-            lo = np.r_[np.full(self.degree + 1, -np.inf), [b[0] for b in bounds]]
-            hi = np.r_[np.full(self.degree + 1, np.inf), [b[1] for b in bounds]]
-            coef = fit_bounded_linear(F[keep], y[keep], lo, hi)
+            coef = fit_bounded_linear(F[keep], y[keep], *amplitude_bounds(names, self.degree + 1))
             r = y[keep] - F[keep] @ coef
             return float(r @ r), coef, names
 
@@ -200,9 +201,10 @@ class ComposedCompensator(CompensatorBase):
                 effects = _with(effects, i, p.name, best)
         sse, coef, names = solve(effects)
         d = self.degree + 1
+        lo, hi = amplitude_bounds(names, d)
         for j, (name, amp) in enumerate(names):  # the amplitudes live in the effects, as compare writes them
             i = next(k for k, e in enumerate(effects) if e.name == name)
-            effects = _with(effects, i, amp, float(np.clip(coef[d + j], lo_hi(name, amp)[0], lo_hi(name, amp)[1])))
+            effects = _with(effects, i, amp, float(np.clip(coef[d + j], lo[d + j], hi[d + j])))
         return effects, coef, float(np.sqrt(sse / keep.sum()) * 1e3)
 
     @property
@@ -233,7 +235,7 @@ class ComposedCompensator(CompensatorBase):
 
     def drifts_in_time(self) -> list[str]:
         """The composed effects no firmware runs that read no temperature: a drift in time (aging)."""
-        return [n for n in self.without_c_form() if not {"die_c", "thermometer_c"} & set(get_effect(n).reads)]
+        return [n for n in self.without_c_form() if not reads_temperature(n)]
 
     def effect_names(self) -> dict[str, list[str]]:
         """Per axis the drift effects composed (the temperature slot left out)."""
@@ -249,13 +251,13 @@ def composed_notes(validation: ValidationResult, fitted: dict) -> tuple[str, ...
             continue
         mine = validation.rms_mg(name)
         other = validation.rms_mg("twin") if "twin" in validation.methods else None
+        missing = est.without_c_form()
         for a, (axis, effects) in enumerate(est.effect_names().items()):
             text = (f"{name} {axis}: {' + '.join(['static cubic', 'die lag'] + effects)} leaves {mine[a]:.2f} mg "
                     "held out")
             if other is not None:
                 text += (f", the lag-aware twin {other[a]:.2f} mg: " + ("the composed effects help here" if mine[a] <
                          other[a] else "the composed effects do not improve on the lag and rate term held out"))
-            missing = est.without_c_form()
             out.append(text + (f"; twin apply --method {name!r} runs it, the C header cannot ({', '.join(missing)})"
                                if missing else f"; twin apply and the C export (--method {name!r}) run it"))
     return tuple(out)
@@ -287,10 +289,6 @@ def effects_named_by_compare(doc, source: str) -> dict[int, dict[str, tuple[str,
             named[axis] = tuple(selected)
         out[instance] = named
     return out
-
-
-def lo_hi(effect: str, parameter: str) -> tuple[float, float]:
-    return next(p.bounds for p in get_effect(effect).parameters if p.name == parameter)
 
 
 def _with(effects: list, i: int, name: str, value: float) -> list:

@@ -70,10 +70,10 @@ def static_curve_mg(correction_g, data: dict, span_c: tuple[float, float], n: in
     temperature_c = np.linspace(span_c[0], span_c[1], n)
     settled_time_s = np.arange(n) * 1e7  # ≫ any τ: the lags equal T and the rate term vanishes
     if data.get("kind") == "ComposedCompensator":  # effects of time alone (aging, warm-up) are no curve in T
-        from twin.effects import get_effect
+        from twin.calibration.composed import reads_temperature
 
-        data = {**data, "axes": [{**ax, "effects": [e for e in ax["effects"] if {"die_c", "thermometer_c"} &
-                                                    set(get_effect(e["name"]).reads)]} for ax in data["axes"]]}
+        data = {**data, "axes": [{**ax, "effects": [e for e in ax["effects"] if reads_temperature(e["name"])]}
+                                 for ax in data["axes"]]}
     return temperature_c, np.asarray(correction_g(data, settled_time_s, temperature_c)) * 1e3
 
 

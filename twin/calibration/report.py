@@ -79,8 +79,8 @@ def write_calibration_report(directory: Path, calibrations: list[ImuCalibration]
                      f"{html.escape(', '.join(f'{a} {m}' for a, m in zip(AXES, c.validation.best_method)))}</p>")
         if c.recommendation is not None:
             parts.append(f"<p>Why this default: {html.escape(c.recommendation.reason)}</p>")
-            if c.recommendation.custom_firmware_gain():
-                gain = c.recommendation.custom_firmware_gain()
+            gain = c.recommendation.custom_firmware_gain()
+            if gain:
                 parts.append(f"<p>{html.escape(gain[0].upper() + gain[1:])}.</p>")
             parts.extend(f"<p>Not the default: {html.escape(v.reason)}</p>" for v in c.recommendation.verdicts
                          if not v.eligible)

@@ -74,8 +74,9 @@ def _print_table(c, axes: list[str]) -> None:
                + f"; best per axis: {', '.join(f'{a} {v.best_method[i]}' for a, i in zip(axes, idx))}")
     if c.recommendation is not None:
         typer.echo(f"  default of apply and the C export: {c.recommendation.reason}")
-        if c.recommendation.custom_firmware_gain():
-            typer.echo(f"  {c.recommendation.custom_firmware_gain()}")
+        gain = c.recommendation.custom_firmware_gain()
+        if gain:
+            typer.echo(f"  {gain}")
         for verdict in c.recommendation.verdicts:
             if not verdict.eligible:
                 typer.echo(f"    not the default: {verdict.reason}")

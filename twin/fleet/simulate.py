@@ -222,12 +222,12 @@ def draw_unit(fs: FleetScenario, i: int) -> tuple[dict, dict]:
     return data, truth
 
 
-def unit_scenario(fs: FleetScenario, i: int, label: str | None = None):
-    """The validated scenario of unit ``i`` (``label`` names it in an error)."""
+def unit_scenario(fs: FleetScenario, i: int):
+    """The validated scenario of unit ``i`` (a bad path or value names the fleet scenario's unit)."""
     from twin.model.scenario import parse_scenario
 
     data, _ = draw_unit(fs, i)
-    return parse_scenario(yaml.safe_dump(data, sort_keys=False), label or f"<fleet unit {fs.unit_id(i)}>")
+    return parse_scenario(yaml.safe_dump(data, sort_keys=False), f"<fleet unit {fs.unit_id(i)}>")
 
 
 def check_every_unit(fs: FleetScenario, source: str) -> None:
@@ -239,11 +239,10 @@ def check_every_unit(fs: FleetScenario, source: str) -> None:
     from twin.errors import TwinError
 
     for i in range(fs.units):
-        label = f"<fleet unit {fs.unit_id(i)}>"
         try:
-            unit_scenario(fs, i, label)
+            unit_scenario(fs, i)
         except TwinError as exc:  # the line of a generated YAML says nothing: the unit and its key do
-            detail = re.sub(rf"^{re.escape(label)}(:\d+)?: ", "", str(exc))
+            detail = re.sub(rf"^<fleet unit {re.escape(fs.unit_id(i))}>(:\d+)?: ", "", str(exc))
             raise FleetError(f"{source}: unit {fs.unit_id(i)} as drawn: {detail}") from None
 
 
