@@ -45,8 +45,8 @@ from twin.measurement import ImuLog, usable_for_calibration
 from twin.measurement.imu import MIN_SAMPLES, MIN_TEMPERATURE_RANGE_C
 from twin.measurement.quality import LogQuality, LogQualityError, QualitySettings, assess_log
 
-# what each firmware can run: its own polynomial in the raw temperature, or (custom C) the lag-aware model
-DEPLOYABLE = {"px4": ("px4",), "ardupilot": ("ardupilot",), "c": ("twin", "polynomial", "px4", "ardupilot")}
+# what custom C (and twin apply by default) can run; PX4 and ArduPilot run only their own polynomial
+C_CANDIDATES = ("twin", "polynomial", "px4", "ardupilot")
 # the instances each firmware has: PX4 TC_A0..TC_A3 (TemperatureCompensation.h, ACCEL_COUNT_MAX 4),
 # ArduPilot INS_TCAL1..INS_TCAL3 (INS_MAX_INSTANCES 3) for IMU instances 0..2
 PX4_INSTANCES = range(PX4_SLOTS)
@@ -316,7 +316,7 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     if orientations:
         orientations["flags"] = tcso_flags(orientations, limits)
     # the default is one the C header can run: a composed twin with an effect of time alone (aging) is not
-    candidates = [m for m in dict.fromkeys(DEPLOYABLE["c"] + tuple(extra_methods or ()))
+    candidates = [m for m in dict.fromkeys(C_CANDIDATES + tuple(extra_methods or ()))
                   if m in fitted and not flags.get(m) and not (isinstance(models[m], ComposedCompensator)
                                                                 and fitted[m].without_c_form())]
     rate_dependent = {m for m in candidates if getattr(models[m], "rate_dependent", False)}
