@@ -29,8 +29,17 @@ def did_you_mean(name: object, options: Iterable, *, label: str | None = "valid"
     return f"; {label}: {', '.join(sorted(options) if sort else options)}"
 
 
-def line_map(text: str) -> dict[tuple, int]:
-    """Key path → 1-based YAML line, from the composed node tree (list items by index)."""
+def _compose(text: str) -> yaml.Node | None:
+    """The YAML node tree (None for an empty or unparsable document: safe_load says why)."""
+    try:
+        return yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError:
+        return None
+
+
+def line_map(text: str, root: yaml.Node | None = None) -> dict[tuple, int]:
+    """Key path → 1-based YAML line, from the composed node tree (list items by index); ``root``:
+    the tree already composed from ``text``."""
     lines: dict[tuple, int] = {}
 
     def walk(node: yaml.Node, path: tuple) -> None:
@@ -44,10 +53,7 @@ def line_map(text: str) -> dict[tuple, int]:
             for i, item in enumerate(node.value):
                 walk(item, path + (i,))
 
-    try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.YAMLError:
-        return lines
+    root = root if root is not None else _compose(text)
     if root is not None:
         walk(root, ())
     return lines
@@ -124,13 +130,9 @@ def check_yaml_limits(text: str, path: str) -> None:
         return  # the parser's own message comes from safe_load, with its line
 
 
-def check_duplicate_keys(text: str, path: str) -> None:
-    """Refuse a mapping that holds the same key twice: YAML loaders keep the last one in silence,
-    so a repeated unit id or parameter would drop the first without a word."""
-    try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.YAMLError:
-        return  # the parser's own message comes from safe_load, with its line
+def check_duplicate_keys(root: yaml.Node | None, path: str) -> None:
+    """Refuse a mapping of the tree ``root`` that holds the same key twice: YAML loaders keep the
+    last one in silence, so a repeated unit id or parameter would drop the first without a word."""
     seen, todo = set(), [root] if root is not None else []
     while todo:
         node = todo.pop()
@@ -157,7 +159,8 @@ def load_yaml_mapping(text: str, path: str, what: str) -> tuple[dict, dict[tuple
     Raises :class:`ScenarioError` with ``path:line: malformed YAML: ...`` or ``path: <what>, got list``.
     """
     check_yaml_limits(text, path)
-    check_duplicate_keys(text, path)
+    root = _compose(text)
+    check_duplicate_keys(root, path)
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -167,4 +170,4 @@ def load_yaml_mapping(text: str, path: str, what: str) -> tuple[dict, dict[tuple
         raise ScenarioError(f"{path}{line}: malformed YAML: {problem}") from None
     if not isinstance(data, dict):
         raise ScenarioError(f"{path}: {what}, got {type(data).__name__}")
-    return data, line_map(text)
+    return data, line_map(text, root)

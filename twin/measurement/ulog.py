@@ -41,9 +41,10 @@ def _check_definitions(path: Path) -> None:
     makes pyulog resynchronise one byte at a time, rereading up to 64 kB per byte: 10,000 such
     messages kept it busy for minutes. Refuse that section at once, naming the byte."""
     with open(path, "rb") as f:
-        head = f.read(16)
+        if len(f.read(16)) < 16:
+            return  # too short for a header: pyulog says so
         offset = 16
-        while len(head) == 16:
+        while True:
             raw = f.read(3)
             if len(raw) < 3:
                 return
