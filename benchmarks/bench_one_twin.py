@@ -91,17 +91,17 @@ def run_one(args):
     n_today = today.size
     protocol = protocol_as_used(t[:n_today], T[:n_today])
     v = validate(models, t[:n_today], T[:n_today], y[:n_today], protocol)
-    fitted_composed = models["composed"].clone().fit(make_X(t[:n_today], T[:n_today]), y[:n_today])
-    missing = fitted_composed.drifts_in_time()
+    # every method fitted once on today's rows, its lags running on into tomorrow
+    X, mask = make_X(t, T), np.arange(t.size) < n_today
+    fitted = {name: est.clone().fit(X, y, mask) for name, est in models.items()}
+    missing = fitted["composed"].drifts_in_time()
     rule = recommend(v, protocol, ["twin", "polynomial", "px4"], {"twin"},
                      undeployable={"composed": missing} if missing and "composed" in v.methods else None)
-    X, mask = make_X(t, T), np.arange(t.size) < n_today
     noise = case.noise_g[run0]
     noise_rms = float(np.sqrt(np.mean((noise[~mask] - noise[mask].mean()) ** 2)) * 1e3)
     tomorrow_rms = {}
-    for name, est in models.items():
-        fitted = est.clone().fit(X, y, mask)
-        r = (y[~mask, 0] - fitted.predict(X)[~mask, 0])
+    for name, est in fitted.items():
+        r = y[~mask, 0] - est.predict(X)[~mask, 0]
         tomorrow_rms[name] = float(np.sqrt(np.mean(r * r)) * 1e3)
     return kind, {"seed": seed, "named": list(finding["selected"]), "default": rule.method,
                   "tomorrow_rms_mg": tomorrow_rms, "noise_only_rms_mg": noise_rms,
