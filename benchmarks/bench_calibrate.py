@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from sklearn.base import clone
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -55,7 +56,7 @@ def per_method(runs: int) -> dict:
         ts = []
         for _ in range(runs):
             start = time.perf_counter()
-            est.clone().fit(X, log.accel_g)
+            clone(est).fit(X, log.accel_g)
             ts.append(time.perf_counter() - start)
         times[name] = float(np.median(ts))
     return times

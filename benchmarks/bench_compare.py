@@ -66,8 +66,8 @@ def main() -> None:
         from statsmodels.regression.linear_model import GLSAR
 
         from twin.diagnosis.compare import twin_model
-        from twin.diagnosis.calibrate import calibrate
-        from twin.diagnosis.problem import DiagnosisConfig, Problem
+        from twin.estimation.fit import fit_twin
+        from twin.estimation.problem import DiagnosisConfig, Problem
         from twin.diagnosis.screen import candidate_names, screen, screen_columns
         from twin.effects import get_effect
         from twin.measurement import load_measurements
@@ -75,7 +75,7 @@ def main() -> None:
         loaded = parse_scenario((ROOT / "scenarios/hidden_thermal_lag.yaml").read_text())
         m = load_measurements([csv])
         p = Problem(m, DiagnosisConfig())
-        cal = calibrate(p, twin_model(loaded, []))
+        cal = fit_twin(p, twin_model(loaded, []))
         names = candidate_names(cal.composition)
         t0 = time.perf_counter()
         screen(p, cal, names)

@@ -1,6 +1,6 @@
 """Monte-Carlo acceptance benchmark of the diagnosis (docs/diagnosis.md §3.3), written as JSON.
 
-For every case, ≥ 200 seeded datasets from :mod:`twin.diagnosis.hidden` (the twin + one hidden module,
+For every case, ≥ 200 seeded datasets from :mod:`twin.datasets.hidden` (the twin + one hidden module,
 realistic noise, two runs at ±1 g, power cycles, 1 Hz) are diagnosed blind; rates come with
 Wilson 95 % intervals. The level of each drawn effect is measured, not assumed: its detectable
 RMS (the hidden term after projecting out what the twin can absorb, on 10-s means) over the σ of
@@ -80,18 +80,18 @@ def wilson(k: int, n: int, z: float = 1.96) -> list[float]:
 def measured_ratio(case) -> float | None:
     if case.hidden_g is None:
         return None
-    from twin.diagnosis.hidden import detectable_ratio
+    from twin.datasets.hidden import detectable_ratio
 
     return detectable_ratio(case.measurement, case.twin, case.hidden_g, case.noise_g)
 
 
 def run_one(args):
     kind, level, followup, seed = args
-    from twin.diagnosis.compare import compare_measurement
-    from twin.diagnosis.hidden import draw_case
+    from twin.finding.build import compare_measurement
+    from twin.datasets.hidden import draw_case
 
     case = draw_case(kind, seed, level)
-    _, r = compare_measurement(case.twin, case.measurement, [])
+    r = compare_measurement(case.twin, case.measurement, [])[1].to_json()
     fams = [c["family"] for c in r["candidates"]]
     selected_fams = [next(c["family"] for c in r["candidates"] if c["effect"] == e) for e in r["selected"]]
     out = {"seed": seed, "detected": r["missing_effect_detected"], "first": fams[0] if fams else None,
@@ -101,7 +101,7 @@ def run_one(args):
            "family": case.family, "detectable_ratio": measured_ratio(case)}
     if followup and seed < 10_000 + FOLLOWUP_SEEDS and r["candidates"]:
         top = (r["selected"] + [c["effect"] for c in r["candidates"]])[0]
-        _, r2 = compare_measurement(case.twin, case.measurement, [top])
+        r2 = compare_measurement(case.twin, case.measurement, [top])[1].to_json()
         out["after_over_noise"] = r2["rms_residual_g"] / case.noise_only_rms_g
         base = kind  # a two-node lag has no one-to-one parameter to recover
         if base in RECOVERY and RECOVERY[base][0] == top:

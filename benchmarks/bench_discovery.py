@@ -1,9 +1,9 @@
 """Monte-Carlo acceptance benchmark of discovery (``twin compare --discover``), written as JSON.
 
-Cases (seeded, :mod:`twin.diagnosis.outside`): four forms outside the library at the clear level —
+Cases (seeded, :mod:`twin.datasets.outside`): four forms outside the library at the clear level —
 (dT/dt)², a step at a temperature threshold, ΔT·dT/dt, the chamber controller's oscillation —,
 null data with coloured noise (bias random walk + 1/f), and five in-library cases of
-:mod:`twin.diagnosis.hidden` (clear). Per out-of-library seed: the residual after discovery over the
+:mod:`twin.datasets.hidden` (clear). Per out-of-library seed: the residual after discovery over the
 noise-only RMS (target ≤ 1.05 in ≥ 80 % of seeds); the printed expression holds the generating
 feature kind, or its fitted term correlates ≥ 0.95 with the generating term on the data (both
 with what the base model absorbs projected out; target ≥ 70 %); the honesty rule (the finding never
@@ -45,7 +45,7 @@ PLUGIN_SEEDS = 5
 
 
 def _projected_corr(problem, J, a, b) -> float:
-    from twin.diagnosis.linalg import orthonormal_basis
+    from twin.estimation.linalg import orthonormal_basis
 
     Q = orthonormal_basis(J)
     x, y = problem.avg(a), problem.avg(b)
@@ -58,10 +58,10 @@ def _baseline_omp(d) -> bool:
     """scikit-learn OMP with 5-fold CV on the same dictionary: does it select any term?"""
     from sklearn.linear_model import OrthogonalMatchingPursuitCV
 
-    from twin.diagnosis.discover import base_design
-    from twin.diagnosis.discover_features import block_feature, block_inputs, dictionary
+    from twin.discovery.search import base_design
+    from twin.discovery.features import block_feature, block_inputs, dictionary
 
-    p, cal = d.problem, d.calibration
+    p, cal = d.problem, d.fit
     X_full, y_full = base_design(p, cal, d.selected)
     J, y = p.avg(X_full), p.avg(y_full)
     r = y - J @ np.linalg.lstsq(J, y, rcond=None)[0]
@@ -77,11 +77,11 @@ def _baseline_omp(d) -> bool:
 
 def run_one(args):
     kind, seed = args
-    from twin.diagnosis.compare import compare_measurement
-    from twin.diagnosis.discover import base_design
-    from twin.diagnosis.discover_report import discover_into, effect_name
-    from twin.diagnosis.hidden import draw_case
-    from twin.diagnosis.outside import draw_outside
+    from twin.discovery.search import base_design
+    from twin.finding.build import compare_measurement, compare_result, run_discovery
+    from twin.finding.discovery import effect_name
+    from twin.datasets.hidden import draw_case
+    from twin.datasets.outside import draw_outside
     from twin.effects import load_plugin
 
     t0 = time.perf_counter()
@@ -92,23 +92,23 @@ def run_one(args):
         case, gen = oc.case, list(oc.generating_kinds)
     d, r = compare_measurement(case.twin, case.measurement, [])
     floor = d.noise_floor_g
-    before = d.finding.lower()
+    before = r.finding.lower()
     out = {"seed": seed, "rms_over_floor": d.rms_residual_g / floor,
            "rms_after_selected_over_floor": d.rms_after_selected_g / floor,
-           "selected": r["selected"], "first_family": d.selected[0].family if d.selected else None,
+           "selected": list(r.selected), "first_family": d.selected[0].family if d.selected else None,
            "structure": [s.grouping for s in d.structure],
            "no_missing_before": "no missing effect" in before}
     with tempfile.TemporaryDirectory() as tmp:
         plugin = Path(tmp) / f"plugin_{kind}_{seed}.py" if (seed - 20_000) < PLUGIN_SEEDS else None
-        discover_into(d, r, plugin)
-        disc = d.discovery
+        disc, written = run_discovery(d, plugin, [])
+        r = compare_result(d, disc, written)
         out.update(proposed=disc.proposed, reason=disc.reason, equation=disc.equation(),
                    kinds=[t.spec.kind for t in disc.terms], heldout_gain=disc.heldout_gain,
                    after_over_noise=disc.rms_predicted_g / case.noise_only_rms_g,
-                   no_missing_after="no missing effect" in d.finding.lower(), preferred_library=disc.preferred_library,
+                   no_missing_after="no missing effect" in r.finding.lower(), preferred_library=disc.preferred_library,
                    seconds=time.perf_counter() - t0)
         if gen is not None and disc.proposed and case.hidden_g is not None:
-            X_full, _ = base_design(d.problem, d.calibration, d.selected)
+            X_full, _ = base_design(d.problem, d.fit, d.selected)
             out["corr_with_truth"] = _projected_corr(d.problem, d.problem.avg(X_full), disc.contribution_g, case.hidden_g)
         if plugin is not None and disc.proposed:
             from twin.effects import REGISTRY
@@ -117,7 +117,7 @@ def run_one(args):
             assert name == effect_name(disc)
             try:
                 _, r2 = compare_measurement(case.twin, case.measurement, [name] + [c.effect for c in d.selected])
-                out["plugin_rms_over_predicted"] = r2["rms_residual_g"] / disc.rms_predicted_g
+                out["plugin_rms_over_predicted"] = r2.rms_residual_g / disc.rms_predicted_g
             finally:  # a registered effect would be screened as a candidate on every later dataset of this worker
                 REGISTRY.pop(name, None)
     try:
@@ -172,20 +172,18 @@ def timing_515k(seed: int = 1) -> dict:
     """compare with and without --discover on a ≈515k-row log: the controller-oscillation case at 14 Hz,
     where the whole search runs (the temp_rate case at 14 Hz is named thermal_lag + stress_relaxation by
     the library, at the floor: discovery returns before searching and would time nothing)."""
-    from twin.diagnosis.compare import compare_measurement
-    from twin.diagnosis.discover_report import discover_into
-    from twin.diagnosis.outside import draw_outside
+    from twin.datasets.outside import draw_outside
+    from twin.finding.build import compare_measurement, run_discovery
 
     oc = draw_outside("controller_oscillation", seed, rate_hz=14.0)
     case = oc.case
     t0 = time.perf_counter()
-    d, r = compare_measurement(case.twin, case.measurement, [])
+    d, _ = compare_measurement(case.twin, case.measurement, [])
     t1 = time.perf_counter()
-    discover_into(d, r, None)
+    disc, _ = run_discovery(d, None, [])
     t2 = time.perf_counter()
     return {"rows": int(case.measurement.time_s.size), "compare_s": t1 - t0, "discover_added_s": t2 - t1,
-            "proposed": d.discovery.proposed, "equation": d.discovery.equation(),
-            "features_tried": d.discovery.features_tried, "target_added_s": 10.0,
+            "proposed": disc.proposed, "equation": disc.equation(), "features_tried": disc.features_tried, "target_added_s": 10.0,
             "pass": (t2 - t1) <= 10.0}
 
 

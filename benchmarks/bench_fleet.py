@@ -113,7 +113,7 @@ def shell_loop(spec, out: Path, n: int) -> dict:
     return {"units": n, "seconds": s, "units_per_minute": 60 * n / s}
 
 
-def prevalence_scores(records: list[dict], truth: dict) -> dict:
+def prevalence_scores(records: list, truth: dict) -> dict:
     """Estimated against true prevalence, three ways (see score_against_truth), and per-unit agreement."""
     from twin.fleet.population import population
     from twin.fleet.simulate import score_against_truth
@@ -121,7 +121,7 @@ def prevalence_scores(records: list[dict], truth: dict) -> dict:
     score = score_against_truth(population(records), truth)
     truth_of = {t["unit"]: set(t["effects"]) for t in truth["units"]}
     fam_of = {t["unit"]: set(t["families"]) for t in truth["units"]}
-    first = lambda r: set(r["families"][:1])  # noqa: E731
+    first = lambda r: set((r.families or ())[:1])  # noqa: E731
     return {
         "prevalence": score,
         # by name: the finding names the effect itself; by family: or another effect of its family
@@ -132,11 +132,11 @@ def prevalence_scores(records: list[dict], truth: dict) -> dict:
         "prevalence_within_5pp_primary_family": all(abs(v["primary_error_pp"]) <= 5 for v in score.values()),
         "per_unit": {
             "units": len(records),
-            "named_exactly_the_truth": sum(set(r.get("named", [])) == truth_of[r["unit"]] for r in records),
-            "families_exactly_the_truth": sum(set(r.get("families", [])) == fam_of[r["unit"]] for r in records),
-            "first_family_is_the_truth": sum(first(r) == fam_of[r["unit"]] for r in records),
-            "a_second_effect_named": sum(len(r.get("named", [])) > 1 for r in records),
-            "median_seconds": sorted(r["seconds"] for r in records)[len(records) // 2]},
+            "named_exactly_the_truth": sum(set(r.named or ()) == truth_of[r.unit] for r in records),
+            "families_exactly_the_truth": sum(set(r.families or ()) == fam_of[r.unit] for r in records),
+            "first_family_is_the_truth": sum(first(r) == fam_of[r.unit] for r in records),
+            "a_second_effect_named": sum(len(r.named or ()) > 1 for r in records),
+            "median_seconds": sorted(r.seconds for r in records)[len(records) // 2]},
     }
 
 
@@ -173,7 +173,7 @@ def main() -> None:
     res: dict = {"units": a.units, "load_average_1_5_15_min_at_start": list(os.getloadavg())}
     t0 = time.perf_counter()
     sim = simulate_fleet(_fleet_scenario(work, a.units), work / "sim", workers=2)
-    res["simulate"] = {"seconds": time.perf_counter() - t0, "written": sim["written"], "rows_per_unit": None}
+    res["simulate"] = {"seconds": time.perf_counter() - t0, "written": sim.written, "rows_per_unit": None}
     first = sorted((work / "sim/logs").glob("*.csv"))[0]
     res["simulate"]["rows_per_unit"] = sum(1 for _ in first.open()) - 1
     print("simulated", res["simulate"], flush=True)
@@ -182,8 +182,8 @@ def main() -> None:
 
     s_local, rec_local = _analyse(spec, work / "local2", 2, "local")
     pop = population(rec_local)
-    res["local_2_workers"] = {"seconds": s_local, "units_per_minute": 60 * a.units / s_local, "ok": pop["ok"],
-                              "errors": pop["errors"], "confidence": pop["confidence"]}
+    res["local_2_workers"] = {"seconds": s_local, "units_per_minute": 60 * a.units / s_local, "ok": pop.ok,
+                              "errors": pop.errors, "confidence": dict(pop.confidence)}
     res.update(prevalence_scores(rec_local, truth))
     print("local", res["local_2_workers"], res["prevalence"], flush=True)
 

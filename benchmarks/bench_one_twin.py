@@ -1,6 +1,6 @@
 """The one twin, calibrate today and fly tomorrow, on data whose truth is known; JSON out.
 
-For each library effect, seeded datasets from :mod:`twin.diagnosis.hidden` (the twin + one hidden
+For each library effect, seeded datasets from :mod:`twin.datasets.hidden` (the twin + one hidden
 effect, realistic noise, 1 Hz). The first run (+1 g) is used; it is cut where its last heating
 branch starts:
 
@@ -64,16 +64,18 @@ def _today_tomorrow(m):
 
 def run_one(args):
     kind, seed = args
+    from sklearn.base import clone
+
     from twin.calibration.branches import protocol_as_used
     from twin.calibration.composed import ComposedCompensator
     from twin.calibration.lag import make_X
     from twin.calibration.lagaware import LagAwareCompensator
     from twin.calibration.methods import Px4Method
-    from twin.calibration.models import PolynomialCompensator
+    from twin.calibration.models import TemperaturePolynomial
     from twin.calibration.recommend import recommend
     from twin.calibration.validate import validate
-    from twin.diagnosis.compare import compare_measurement
-    from twin.diagnosis.hidden import draw_case
+    from twin.finding.build import compare_measurement
+    from twin.datasets.hidden import draw_case
 
     start = time.perf_counter()
     case = draw_case(kind, seed, "clear")
@@ -82,18 +84,18 @@ def run_one(args):
     sliced = {f.name: getattr(m, f.name)[today] for f in dataclasses.fields(m)
               if isinstance(getattr(m, f.name), np.ndarray) and getattr(m, f.name).shape[:1] == (len(m),)}
     _, finding = compare_measurement(case.twin, dataclasses.replace(m, **sliced), [])
-    named = tuple(e for e in finding["selected"] if e != "thermal_lag")  # the composed twin always has the die lag
+    named = tuple(e for e in finding.selected if e != "thermal_lag")  # the composed twin always has the die lag
     run0 = np.r_[today, tomorrow]
     t, T, y1 = m.time_s[run0], m.temperature_c[run0], m.output_g[run0]
     y = np.column_stack([y1, y1, y1])  # the estimators take three axes; one axis is scored
-    models = {"px4": Px4Method(), "polynomial": PolynomialCompensator(),
+    models = {"px4": Px4Method(), "polynomial": TemperaturePolynomial(),
               "twin": LagAwareCompensator(share="per_axis"), "composed": ComposedCompensator(named)}
     n_today = today.size
     protocol = protocol_as_used(t[:n_today], T[:n_today])
     v = validate(models, t[:n_today], T[:n_today], y[:n_today], protocol)
     # every method fitted once on today's rows, its lags running on into tomorrow
     X, mask = make_X(t, T), np.arange(t.size) < n_today
-    fitted = {name: est.clone().fit(X, y, mask) for name, est in models.items()}
+    fitted = {name: clone(est).fit(X, y, mask) for name, est in models.items()}
     missing = fitted["composed"].drifts_in_time()
     rule = recommend(v, protocol, ["twin", "polynomial", "px4"], {"twin"},
                      undeployable={"composed": missing} if missing and "composed" in v.methods else None)

@@ -26,6 +26,21 @@ class FeatureSet:
     """Named feature columns computed from temperature [°C] and time [s].
 
     Sets compose with ``+``; :meth:`names` gives the column names (for printing an equation).
+
+    Attributes
+    ----------
+    terms : tuple of str
+        Columns, from ``"T"`` [°C], ``"T2"`` [°C²], ``"dT"`` [°C], ``"dT2"`` [°C²], ``"dTdt"`` [°C/min].
+    delta : {"reference", "window"}
+        ΔT = T − T0, or ΔT = T(t) − T(t − ``window_s``) (module docstring).
+    t0_c : float or None
+        Reference temperature T0 [°C]; None: the first sample.
+    window_s : float
+        Window w of ΔT and of the centred difference of dT/dt [s].
+
+    References
+    ----------
+    Qi et al. (2022), Micromachines 13, 2156, §2.2.2 (T, T², ΔT, ΔT²); ``dTdt`` is an extension.
     """
 
     terms: tuple[str, ...]
@@ -47,11 +62,31 @@ class FeatureSet:
         return FeatureSet(terms, self.delta, self.t0_c, self.window_s)
 
     def names(self) -> list[str]:
+        """Printable column names.
+
+        Returns
+        -------
+        list of str
+            E.g. ``["T", "T^2", "dT", "dT^2", "dT/dt"]``.
+        """
         label = {"T": "T", "T2": "T^2", "dT": "dT", "dT2": "dT^2", "dTdt": "dT/dt"}
         return [label[t] for t in self.terms]
 
     def transform(self, temperature_c: np.ndarray, time_s: np.ndarray) -> np.ndarray:
-        """Feature matrix (n × k) in the order of ``terms``."""
+        """Feature matrix (n × k) in the order of ``terms``.
+
+        Parameters
+        ----------
+        temperature_c : ndarray
+            Temperature T [°C].
+        time_s : ndarray
+            Sample times [s].
+
+        Returns
+        -------
+        ndarray
+            Features (n, k) [°C, °C², °C/min by column].
+        """
         t = np.asarray(temperature_c, float)
         time_s = np.asarray(time_s, float)
         if self.delta == "reference":

@@ -25,7 +25,22 @@ TANH_MAX_ABS_ERROR = 5e-7
 
 @njit(fastmath=True, error_model="numpy", inline="always", cache=True)
 def tanh_rational(x):  # pragma: no cover - compiled
-    """float32 tanh as Eigen's rational approximation (see the module docstring)."""
+    """float32 tanh as Eigen's rational approximation (see the module docstring).
+
+    Parameters
+    ----------
+    x : float32
+        Argument [1].
+
+    Returns
+    -------
+    float32
+        tanh(x) [1], within :data:`TANH_MAX_ABS_ERROR`.
+
+    References
+    ----------
+    Eigen 3.4, ``ptanh_float`` in ``GenericPacketMathFunctions.h``.
+    """
     # the constants are written as float32 here: numba would take module-level ones as float64
     f = np.float32
     c = f(7.90531110763549805)  # beyond it the result is ±1 to within 2.4e-7
@@ -42,7 +57,18 @@ def tanh_rational(x):  # pragma: no cover - compiled
 
 @njit(fastmath=True, error_model="numpy", cache=True)
 def tanh_rational_array(x):  # pragma: no cover - compiled
-    """:func:`tanh_rational` of every element of a float32 array (for tests and benchmarks)."""
+    """:func:`tanh_rational` of every element of a float32 array (for tests and benchmarks).
+
+    Parameters
+    ----------
+    x : ndarray of float32
+        Arguments [1].
+
+    Returns
+    -------
+    ndarray of float32
+        tanh(x) [1].
+    """
     out = np.empty_like(x)
     for i in range(x.size):
         out[i] = tanh_rational(x[i])
@@ -115,15 +141,16 @@ def population_mse_tanh(theta: np.ndarray, XT: np.ndarray, y: np.ndarray, hidden
     XT : np.ndarray
         (d, n) float32 inputs, one row per input (sample-contiguous).
     y : np.ndarray
-        (n,) float32 targets.
+        (n,) float32 targets [unit of the (standardised) target].
     hidden : int
+        Hidden neurons h per network.
     chunk : int, optional
         Samples kept in L1 per network at a time (default 1024: 8 KB; the speed is flat over 256–4096).
 
     Returns
     -------
     np.ndarray
-        (P,) float64 mean squared errors.
+        (P,) float64 mean squared errors [unit of y squared].
     """
     th = np.ascontiguousarray(theta, dtype=np.float32)
     P, d = th.shape[0], XT.shape[0]

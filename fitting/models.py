@@ -16,17 +16,31 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from fitting.network import BPNN, init_weights, n_parameters, population_mse
 from fitting.optimizers import GA, PSOGA
-
-
-def _validation_mask(n: int, fraction: float, blocks: int = 200) -> np.ndarray:
-    block = max(1, n // blocks)
-    return (np.arange(n) // block) % max(2, int(round(1 / fraction))) == 0
+from fitting.splits import interleaved_validation_mask
 
 
 class PolynomialCompensator(RegressorMixin, BaseEstimator):
     """Polynomial (no cross terms) in each feature, order 1..``max_order`` chosen by validation MSE.
 
-    Attributes: ``order_``, ``coef_`` (intercept first), ``validation_mse_`` per order.
+    Least squares on standardised features; the validation split is interleaved blocks (time series).
+
+    Parameters
+    ----------
+    max_order : int
+        Highest polynomial order tried.
+    validation_fraction : float
+        Share of the samples held out to choose the order [1].
+
+    Attributes
+    ----------
+    order_ : int
+        Chosen order.
+    coef_ : ndarray
+        Coefficients, intercept first [unit of y].
+    validation_mse_ : dict of int to float
+        Validation MSE per order [unit of y squared].
+    x_mean_, x_scale_ : ndarray
+        Standardisation of the features [unit of each feature].
     """
 
     def __init__(self, max_order=5, validation_fraction=0.2):
@@ -38,13 +52,27 @@ class PolynomialCompensator(RegressorMixin, BaseEstimator):
         return np.column_stack([np.ones(len(X))] + [Xs**k for k in range(1, order + 1)])
 
     def fit(self, X, y):
+        """Choose the order on the validation split, then fit it on all samples.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, k)
+            Features (e.g. :meth:`fitting.features.FeatureSet.transform`) [unit of each feature].
+        y : array_like, shape (n,)
+            Target, e.g. the drift to compensate [g].
+
+        Returns
+        -------
+        PolynomialCompensator
+            ``self``, fitted.
+        """
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         y = np.asarray(y, float).ravel()
         if not (isinstance(self.max_order, (int, np.integer)) and self.max_order >= 1):
             raise ValueError(f"max_order must be a positive integer, got {self.max_order!r}")
         self.x_mean_, self.x_scale_ = X.mean(axis=0), X.std(axis=0)
         self.x_scale_[self.x_scale_ == 0] = 1.0
-        val = _validation_mask(len(y), self.validation_fraction) if len(y) >= 20 else np.zeros(len(y), bool)
+        val = interleaved_validation_mask(len(y), self.validation_fraction) if len(y) >= 20 else np.zeros(len(y), bool)
         self.validation_mse_ = {}
         for order in range(1, int(self.max_order) + 1):
             A = self._design(X, order)
@@ -58,6 +86,18 @@ class PolynomialCompensator(RegressorMixin, BaseEstimator):
         return self
 
     def predict(self, X):
+        """Evaluate the fitted polynomial.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, k)
+            Features [unit of each feature].
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Prediction [unit of y].
+        """
         check_is_fitted(self, "coef_")
         X = validate_data(self, X, reset=False, dtype=np.float64)
         return self._design(X, self.order_) @ self.coef_
@@ -65,7 +105,17 @@ class PolynomialCompensator(RegressorMixin, BaseEstimator):
     def equation(self, feature_names=None, unit: str = "g") -> str:
         """The fitted polynomial with its values, in standardised features z_j = (x_j − mean_j)/scale_j.
 
-        ``feature_names``: e.g. ``FeatureSet.names()``; default x0, x1, ….
+        Parameters
+        ----------
+        feature_names : list of str, optional
+            E.g. ``FeatureSet.names()``; default x0, x1, ….
+        unit : str
+            Unit of y printed in the equation.
+
+        Returns
+        -------
+        str
+            ``y [unit] = …; z(name) = (name − mean) / scale, …``.
         """
         check_is_fitted(self, "coef_")
         k = self.x_mean_.size
@@ -85,19 +135,38 @@ class EvolvedBPNN(RegressorMixin, BaseEstimator):
     Parameters
     ----------
     optimizer : {"ga", "psoga"}
-    generations : int — GA generations / PSO-GA iterations
+        The paper's GA-BPNN or PSO-GA-BPNN.
+    generations : int
+        GA generations / PSO-GA iterations.
     population_size : int
-    hidden_size, activation : network shape
-    bp_iter : int — L-BFGS iterations after the search (0: the search winner as it is)
-    weight_bound : float — search box ±bound for every weight (standardised data)
-    sample_stride : int — fitness on every k-th training sample (1: all of them)
+        Networks in the population.
+    hidden_size : int
+        Hidden neurons.
+    activation : {"tanh", "relu", "sigmoid"}
+        Hidden activation.
+    bp_iter : int
+        L-BFGS iterations after the search (0: the search winner as it is).
+    weight_bound : float
+        Search box ±bound for every weight (standardised data) [1].
+    sample_stride : int
+        Fitness on every k-th training sample (1: all of them).
     random_state : int or None
+        Seed.
 
     Attributes
     ----------
-    network_ : BPNN — the trained network
-    history_ : list of float — best training MSE (standardised) after each iteration
-    n_evaluations_ : int — network evaluations (population size × evaluations per iteration)
+    network_ : BPNN
+        The trained network.
+    history_ : list of float
+        Best training MSE (standardised) after each iteration [1].
+    n_evaluations_ : int
+        Network evaluations (population size × evaluations per iteration).
+    search_best_ : ndarray
+        Flat weights of the search winner (standardised data).
+
+    References
+    ----------
+    Qi et al. (2022), Micromachines 13, 2156: §2.2.2 (BPNN, eqs. 36–38) and Table 2 (MSE per iteration).
     """
 
     def __init__(self, optimizer="psoga", generations=50, population_size=50, hidden_size=10, activation="tanh",
@@ -113,6 +182,20 @@ class EvolvedBPNN(RegressorMixin, BaseEstimator):
         self.random_state = random_state
 
     def fit(self, X, y):
+        """Search the initial weights with the population optimiser, then train by L-BFGS.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, k)
+            Features [unit of each feature].
+        y : array_like, shape (n,)
+            Target [e.g. g].
+
+        Returns
+        -------
+        EvolvedBPNN
+            ``self``, fitted.
+        """
         import torch
 
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
@@ -155,6 +238,18 @@ class EvolvedBPNN(RegressorMixin, BaseEstimator):
         return self
 
     def predict(self, X):
+        """Predict with the trained network.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, k)
+            Features [unit of each feature].
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Prediction [unit of y].
+        """
         check_is_fitted(self, "network_")
         X = validate_data(self, X, reset=False, dtype=np.float64)
         return self.network_.predict(X)

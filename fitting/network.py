@@ -1,10 +1,10 @@
 """Back-propagation network (one hidden layer) in torch, CPU, with the scikit-learn contract.
 
-The weights of a d-h-1 network are one flat vector θ = [W1 (d·h), b1 (h), W2 (h), b2 (1)], so a
-*population* of networks is one (P, n_params) tensor: :func:`population_mse` evaluates every
-member in batched tensor operations (never one network at a time in Python), which is what GA,
-PSO and PSO-GA need for their fitness. Back-propagation itself (:func:`mse_and_gradient`) is
-written out in float64 and driven by scipy's L-BFGS-B or torch's Adam.
+The weights of a d-h-1 network are one flat vector θ = [W1 (d·h), b1 (h), W2 (h), b2 (1)], so a *population* of
+networks is one (P, n_params) tensor: :func:`population_mse` evaluates every member in batched tensor operations
+(never one network at a time in Python), which is what GA, PSO and PSO-GA need for their fitness.
+Back-propagation itself (:func:`mse_and_gradient`) is written out in float64 and driven by scipy's L-BFGS-B or
+torch's Adam. X, y and θ below are standardised (dimensionless), except in :class:`BPNN`'s fit/predict.
 
 References
 ----------
@@ -24,11 +24,20 @@ ACTIVATIONS = ("tanh", "relu", "sigmoid")
 
 def _torch():
     import torch
-
     return torch
 
 
 def n_parameters(n_inputs: int, hidden: int) -> int:
+    """Length d·h + h + h + 1 of the flat weights θ of a d-h-1 network (d = ``n_inputs``, h = ``hidden``).
+
+    Parameters
+    ----------
+    n_inputs, hidden : int
+
+    Returns
+    -------
+    int
+    """
     return n_inputs * hidden + hidden + hidden + 1
 
 
@@ -45,7 +54,17 @@ def _act_in_place(torch, name: str):
 
 
 def forward(theta, X, hidden: int, activation: str = "tanh"):
-    """Outputs (P, n) of P networks with flat weights ``theta`` (P, n_params) on X (n, d)."""
+    """Outputs (P, n) of P networks with flat weights ``theta`` (P, n_params) on X (n, d) (standardised).
+
+    Parameters
+    ----------
+    theta, X, hidden, activation
+        Weights and inputs (torch tensors); hidden neurons h (int); ``"tanh"``, ``"relu"`` or ``"sigmoid"``.
+
+    Returns
+    -------
+    torch.Tensor
+    """
     torch = _torch()
     P, d = theta.shape[0], X.shape[1]
     i = d * hidden
@@ -59,9 +78,17 @@ def forward(theta, X, hidden: int, activation: str = "tanh"):
 
 @functools.cache
 def l2_cache_bytes(default: int = 1 << 20) -> int:
-    """Size of the CPU's level-2 cache (Linux sysfs), ``default`` where it cannot be read."""
-    from pathlib import Path
+    """Size of the CPU's level-2 cache [bytes] (Linux sysfs), ``default`` where it cannot be read.
 
+    Parameters
+    ----------
+    default : int
+
+    Returns
+    -------
+    int
+    """
+    from pathlib import Path
     for idx in sorted(Path("/sys/devices/system/cpu/cpu0/cache").glob("index*")):
         try:
             if (idx / "level").read_text().strip() == "2" and (idx / "type").read_text().strip() != "Instruction":
@@ -73,18 +100,33 @@ def l2_cache_bytes(default: int = 1 << 20) -> int:
 
 
 def block_chunk(rows: int, itemsize: int, cache_bytes: int | None = None) -> int:
-    """Samples per chunk: the largest power of two whose (rows, chunk) block fits the L2 cache,
-    within [256, 16384]. Measured on an Intel Xeon (2 MB L2, 500 rows of float32): 664 evaluations/s
-    at 1024 samples (2 MB), 582 at 2048, 524 at 4096, 452 at 512 (per-chunk overhead)."""
+    """Samples per chunk: the largest power of two whose (rows, chunk) block fits the L2 cache, in [256, 16384].
+
+    Measured on an Intel Xeon (2 MB L2, 500 rows of float32): 664 evaluations/s at 1024 samples (2 MB), 582
+    at 2048, 524 at 4096, 452 at 512 (per-chunk overhead).
+
+    Parameters
+    ----------
+    rows, itemsize, cache_bytes : int
+        Block rows; bytes per element; cache size [bytes] (default :func:`l2_cache_bytes`).
+
+    Returns
+    -------
+    int
+    """
     cache = l2_cache_bytes() if cache_bytes is None else cache_bytes
     fit = max(1, cache // max(1, rows * itemsize))
     return int(min(16384, max(256, 1 << (fit.bit_length() - 1))))
 
 
 def compiled_kernel_available() -> bool:
-    """Whether numba's compiled tanh kernel (:mod:`fitting.kernels`) can run (``TDE_TWIN_NO_NUMBA`` unset)."""
-    import os
+    """Whether numba's compiled tanh kernel (:mod:`fitting.kernels`) can run (``TDE_TWIN_NO_NUMBA`` unset).
 
+    Returns
+    -------
+    bool
+    """
+    import os
     if os.environ.get("TDE_TWIN_NO_NUMBA"):
         return False
     try:
@@ -94,26 +136,31 @@ def compiled_kernel_available() -> bool:
     return True
 
 
-def population_mse(theta, X, y, hidden: int, activation: str = "tanh", chunk: int | None = None,
-                   kernel: str = "auto"):
+def population_mse(theta, X, y, hidden: int, activation: str = "tanh", chunk: int | None = None, kernel: str = "auto"):
     """Mean squared error of each of P networks on (X, y), in float64, without a Python loop over networks.
 
     ``kernel="auto"`` runs float32 tanh networks through the compiled kernel
-    (:func:`fitting.kernels.population_mse_tanh`: one pass per network, a rational tanh within 5e-7;
-    1.9× this torch kernel on an AMD EPYC) when numba is present; ``"torch"`` forces the torch kernel.
+    (:func:`fitting.kernels.population_mse_tanh`: one pass per network, a rational tanh within 5e-7; 1.9× this
+    torch kernel on an AMD EPYC) when numba is present; ``"torch"`` forces the torch kernel. There the hidden
+    layers of all P networks are one GEMM, (P·h, d) @ (d, chunk), laid out member-major: the activation runs in
+    place and the output layer is one batched (1, h) @ (h, chunk) product per member on contiguous rows. Chunks of
+    ``chunk`` samples (default :func:`block_chunk`: the (P·h, chunk) block fits the L2 cache); a (P, n, h)
+    broadcast, as :func:`forward` does, is ~8× slower on 390k samples (benchmarks/bench_fitting.py measures both).
 
-    The torch kernel: the hidden layers of all P networks are one GEMM, (P·h, d) @ (d, chunk), so the
-    work is laid out member-major: the activation runs in place and the output layer is one batched
-    (1, h) @ (h, chunk) product per member on contiguous rows. Chunks of ``chunk`` samples (default
-    :func:`block_chunk`: the (P·h, chunk) block fits the L2 cache); a (P, n, h) broadcast, as
-    :func:`forward` does, is ~8× slower on 390k samples (benchmarks/bench_fitting.py measures both).
+    Parameters
+    ----------
+    theta, X, y, hidden, activation, chunk, kernel
+        Weights (P, n_params), inputs (n, d), targets (n,) as standardised tensors; then as above.
+
+    Returns
+    -------
+    torch.Tensor
     """
     torch = _torch()
     if kernel not in ("auto", "torch"):
         raise ValueError(f"kernel must be 'auto' or 'torch', got {kernel!r}")
     if kernel == "auto" and activation == "tanh" and X.dtype == torch.float32 and compiled_kernel_available():
         from fitting.kernels import population_mse_tanh
-
         mse = population_mse_tanh(theta.to(torch.float32).numpy(), X.T.contiguous().numpy(), y.numpy(), hidden, chunk)
         return torch.from_numpy(mse)
     P, d = theta.shape[0], X.shape[1]
@@ -152,7 +199,7 @@ def tanh_as_sigmoid(W1, b1, W2, b2):
 
     Parameters
     ----------
-    W1 : (P·h, d) tensor, b1 : (P·h, 1), W2 : (P, 1, h), b2 : (P, 1)
+    W1, b1, W2, b2 : torch.Tensor, shapes (P·h, d), (P·h, 1), (P, 1, h), (P, 1)
 
     Returns
     -------
@@ -175,10 +222,18 @@ def mse_and_gradient(theta: np.ndarray, X, y, hidden: int, activation: str = "ta
                      chunk: int = 16384):
     """Mean squared error of one network (flat weights ``theta``) on (X, y), and its gradient.
 
-    Back-propagation written out (Rumelhart et al. 1986), float64, no autograd graph: with
-    A = act(X W1 + b1) and e = A W2 + b2 − y, ∂/∂W2 = 2Aᵀe/n, ∂/∂W1 = 2Xᵀ[(e W2ᵀ) ⊙ act′]/n.
-    Chunks of ``chunk`` samples keep A in cache (2.7× faster than whole arrays on 350k samples).
-    Returns ``(mse, gradient)`` as (float, ndarray), or ``(mse, None)`` with ``gradient=False``.
+    Back-propagation written out (Rumelhart et al. 1986), float64, no autograd graph: with A = act(X W1 + b1)
+    and e = A W2 + b2 − y, ∂/∂W2 = 2Aᵀe/n, ∂/∂W1 = 2Xᵀ[(e W2ᵀ) ⊙ act′]/n. Chunks of ``chunk`` samples keep A
+    in cache (2.7× faster than whole arrays on 350k samples). ``gradient=False`` returns ``(mse, None)``.
+
+    Parameters
+    ----------
+    theta, X, y, hidden, activation, gradient, chunk
+        Weights (n_params,) as ndarray; float64 tensors X (n, d), y (n,); then as :func:`population_mse`.
+
+    Returns
+    -------
+    mse, gradient : float, ndarray or None
     """
     torch = _torch()
     th = torch.as_tensor(np.asarray(theta, dtype=np.float64))
@@ -207,7 +262,17 @@ def mse_and_gradient(theta: np.ndarray, X, y, hidden: int, activation: str = "ta
 
 
 def init_weights(n_inputs: int, hidden: int, rng: np.random.Generator, size: int = 1) -> np.ndarray:
-    """Glorot-uniform weights, zero biases, for ``size`` networks (size, n_params)."""
+    """Glorot-uniform weights (Glorot & Bengio 2010), zero biases, for ``size`` networks (size, n_params).
+
+    Parameters
+    ----------
+    n_inputs, hidden, rng, size
+        Inputs d, hidden neurons h (int); numpy Generator; number of networks (int).
+
+    Returns
+    -------
+    ndarray
+    """
     lim1 = np.sqrt(6.0 / (n_inputs + hidden))
     lim2 = np.sqrt(6.0 / (hidden + 1))
     out = np.zeros((size, n_parameters(n_inputs, hidden)))
@@ -231,9 +296,9 @@ class BPNN(RegressorMixin, BaseEstimator):
         Epochs (Adam) or L-BFGS iterations (checked against the validation set every 10).
     learning_rate : float
         Adam step size (L-BFGS uses its line search).
-    early_stopping : bool
-        Stop when the validation loss has not improved for ``n_iter_no_change`` epochs and keep
-        the best weights.
+    early_stopping, n_iter_no_change, tol : bool, int, float
+        Stop after ``n_iter_no_change`` epochs without a validation improvement > ``tol`` and keep the best
+        weights (without validation data: when the training loss changes by < ``tol``).
     validation_fraction : float
         Share of the training data held out, as interleaved blocks (time series).
     init_weights : array, optional
@@ -276,6 +341,17 @@ class BPNN(RegressorMixin, BaseEstimator):
             raise ValueError(f"validation_fraction must be in [0, 1), got {self.validation_fraction}")
 
     def fit(self, X, y):
+        """Standardise, hold out the validation blocks and train.
+
+        Parameters
+        ----------
+        X, y : array_like, shapes (n, d) and (n,)
+
+        Returns
+        -------
+        self : BPNN
+        """
+        from fitting.splits import interleaved_validation_mask  # local: this module is at the 450-line limit
         torch = _torch()
         self._validate_hyperparameters()
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
@@ -287,9 +363,8 @@ class BPNN(RegressorMixin, BaseEstimator):
         Xs = torch.as_tensor((X - self.x_mean_) / self.x_scale_, dtype=torch.float64)
         ys = torch.as_tensor((y - self.y_mean_) / self.y_scale_, dtype=torch.float64)
         n = X.shape[0]
-        block = max(1, n // 200)  # interleaved blocks: every part of the record is seen in both sets
         use_val = self.early_stopping and self.validation_fraction > 0 and n >= 20
-        val = ((np.arange(n) // block) % max(2, int(round(1 / self.validation_fraction))) == 0) if use_val else np.zeros(n, bool)
+        val = interleaved_validation_mask(n, self.validation_fraction) if use_val else np.zeros(n, bool)
         Xtr, ytr = Xs[torch.as_tensor(~val)].contiguous(), ys[torch.as_tensor(~val)].contiguous()
         Xval, yval = Xs[torch.as_tensor(val)], ys[torch.as_tensor(val)]
         d = X.shape[1]
@@ -356,6 +431,16 @@ class BPNN(RegressorMixin, BaseEstimator):
         return self
 
     def predict(self, X):
+        """Predict [unit of y] with the trained weights.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+
+        Returns
+        -------
+        ndarray, shape (n,)
+        """
         torch = _torch()
         check_is_fitted(self, "coef_")
         X = validate_data(self, X, reset=False, dtype=np.float64)

@@ -27,7 +27,19 @@ Objective = Callable[[np.ndarray], np.ndarray]
 
 
 class PopulationOptimizer(BaseEstimator):
-    """Template: initialise a population in the box, step until the budget or the target."""
+    """Template: initialise a population in the box, step until the budget or the target.
+
+    Parameters
+    ----------
+    population_size, max_iter : int
+        Members of the population; iteration budget.
+    target : float, optional
+        Stop when the best value is ≤ ``target`` [unit of the objective].
+    tol_iter : int, optional
+        Stop after this many iterations without improvement.
+    random_state : int or None
+        Seed.
+    """
 
     def __init__(self, population_size=50, max_iter=100, target=None, tol_iter=None, random_state=None):
         self.population_size = population_size
@@ -59,10 +71,23 @@ class PopulationOptimizer(BaseEstimator):
         self.history_.append(self.fun_)
 
     def fit(self, objective: Objective, bounds, x0: np.ndarray | None = None, callback=None):
-        """Minimise a batched ``objective`` over ``bounds`` ([(lo, hi), ...] or (lo, hi) arrays).
+        """Minimise a batched ``objective`` over ``bounds``.
 
-        ``x0`` (optional, (k, d)) seeds part of the initial population. ``callback(self)`` is
-        called after each iteration.
+        Parameters
+        ----------
+        objective : callable
+            ``f(X)``: (P, d) → (P,) values [any unit]; non-finite values count as +inf.
+        bounds : sequence or ndarray
+            [(lo, hi), ...] or (lo, hi) arrays [unit of x].
+        x0 : ndarray, optional
+            (k, d) points seeding part of the initial population.
+        callback : callable, optional
+            ``callback(self)``, called after each iteration.
+
+        Returns
+        -------
+        self : PopulationOptimizer
+            Fitted: ``x_``, ``fun_``, ``history_``, ``n_iter_``, ``n_evaluations_``.
         """
         if not (isinstance(self.population_size, (int, np.integer)) and self.population_size >= 2):
             raise ValueError(f"population_size must be an integer >= 2, got {self.population_size!r}")
@@ -117,7 +142,18 @@ class GeneticOperators:
     inside every PSO-GA step). ``encoding="real"``: blend (BLX-α) crossover and Gaussian mutation
     whose scale shrinks with ``progress`` (0 at the start of the run, 1 at the budget).
     ``encoding="binary"``: the paper's eq. (39) — each variable as ``n_bits`` Gray-coded bits on
-    its interval, single-point crossover, bit-flip mutation.
+    its interval, single-point crossover, bit-flip mutation (GA: Holland 1975 / Goldberg 1989).
+
+    Parameters
+    ----------
+    crossover_rate, mutation_rate : float
+        Probability of crossover per child; of mutation per variable (binary: ``mutation_rate / n_bits``
+        per bit) [1].
+    mutation_scale : float
+        Gaussian mutation σ as a share of the box width at the start, shrinking as (1 − progress)² [1].
+    encoding : {"real", "binary"}
+    n_bits : int
+        Bits per variable (binary encoding).
     """
 
     def __init__(self, crossover_rate=0.9, mutation_rate=0.1, mutation_scale=0.1, encoding="real", n_bits=24):
@@ -131,13 +167,42 @@ class GeneticOperators:
 
     @staticmethod
     def tournament(rng, fitness: np.ndarray, k: int = 2) -> np.ndarray:
-        """Indices of the winners of ``len(fitness)`` tournaments of ``k`` (lowest value wins)."""
+        """Indices of the winners of ``len(fitness)`` tournaments of ``k`` (lowest value wins).
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+        fitness : ndarray
+            Objective value of each member.
+        k : int
+            Tournament size.
+
+        Returns
+        -------
+        ndarray of int
+        """
         n = fitness.shape[0]
         idx = rng.integers(0, n, (n, k))
         return idx[np.arange(n), np.argmin(fitness[idx], axis=1)]
 
     def offspring(self, rng, population: np.ndarray, fitness: np.ndarray, lo, hi, progress: float) -> np.ndarray:
-        """Children of ``population`` (one per member), inside the box [lo, hi]."""
+        """Children of ``population`` (one per member), inside the box [lo, hi].
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+        population, fitness : ndarray
+            Members (P, d) and their objective values (P,).
+        lo, hi : ndarray
+            The box [unit of x].
+        progress : float
+            Share of the budget used, 0 to 1 [1].
+
+        Returns
+        -------
+        ndarray
+            Children (P, d).
+        """
         n = population.shape[0]
         parents = population[self.tournament(rng, fitness)]
         mates = parents[rng.permutation(n)]
@@ -177,8 +242,21 @@ class GeneticOperators:
 
 
 class GA(PopulationOptimizer):
-    """Genetic algorithm: tournament selection, crossover, mutation (:class:`GeneticOperators`),
-    random immigrants, elitism. ``encoding`` ``"real"`` or ``"binary"`` (the paper's eq. 39)."""
+    """Genetic algorithm: tournament selection, crossover, mutation, random immigrants, elitism.
+
+    Variation by :class:`GeneticOperators`; ``encoding`` ``"real"`` or ``"binary"`` (the paper's eq. 39).
+
+    Parameters
+    ----------
+    population_size, max_iter, target, tol_iter, random_state
+        As in :class:`PopulationOptimizer`.
+    crossover_rate, mutation_rate, mutation_scale, encoding, n_bits
+        As in :class:`GeneticOperators`.
+    elite : int
+        Best members carried over unchanged each generation.
+    immigrants : float
+        Share of each generation replaced by random points (Grefenstette 1992) [1].
+    """
 
     def __init__(self, population_size=50, max_iter=100, crossover_rate=0.9, mutation_rate=0.1,
                  mutation_scale=0.1, elite=2, immigrants=0.1, encoding="real", n_bits=24, target=None,
@@ -208,8 +286,26 @@ class GA(PopulationOptimizer):
 
 
 class PSO(PopulationOptimizer):
-    """Particle swarm, inertia weight decreasing linearly from ``w_start`` to ``w_end``; ``neighbours``
-    > 0 uses a ring (lbest) topology (Kennedy & Mendes 2002), 0 the global best."""
+    """Particle swarm, inertia weight decreasing linearly from ``w_start`` to ``w_end``.
+
+    Inertia-weight update of Shi & Eberhart (1998) (module docstring); ``neighbours`` > 0 uses a ring (lbest)
+    topology (Kennedy & Mendes 2002), 0 the global best.
+
+    Parameters
+    ----------
+    population_size, max_iter, target, tol_iter, random_state
+        As in :class:`PopulationOptimizer`.
+    w_start, w_end : float
+        Inertia weight at the start and at the end of the budget [1].
+    c1, c2 : float
+        Cognitive and social acceleration coefficients [1].
+    max_velocity : float
+        Velocity limit as a share of the box width [1].
+    neighbours : int
+        Ring neighbours on each side; 0: global best.
+    restart_after : int or None
+        Iterations without a new best before the swarm is scattered again (best particle kept).
+    """
 
     def __init__(self, population_size=50, max_iter=100, w_start=0.9, w_end=0.4, c1=1.5, c2=1.5,
                  max_velocity=0.2, neighbours=2, restart_after=40, target=None, tol_iter=None, random_state=None):
@@ -279,9 +375,21 @@ class PSO(PopulationOptimizer):
 
 
 class PSOGA(PSO):
-    """The paper's hybrid: GA crossover and mutation (the same :class:`GeneticOperators` as
-    :class:`GA`, built once per fit), then PSO moves the offspring towards the personal and global
-    bests; one iteration = one GA generation + one PSO step (two population evaluations)."""
+    """The paper's hybrid PSO-GA: GA variation, then PSO moves.
+
+    GA crossover and mutation (the same :class:`GeneticOperators` as :class:`GA`, built once per fit), then PSO
+    moves the offspring towards the personal and global bests; one iteration = one GA generation + one PSO step
+    (two population evaluations).
+
+    Parameters
+    ----------
+    population_size, max_iter, target, tol_iter, random_state
+        As in :class:`PopulationOptimizer`.
+    crossover_rate, mutation_rate, mutation_scale, immigrants
+        As in :class:`GA` (real encoding).
+    w_start, w_end, c1, c2, max_velocity, neighbours, restart_after
+        As in :class:`PSO`.
+    """
 
     def __init__(self, population_size=50, max_iter=100, crossover_rate=0.9, mutation_rate=0.1,
                  mutation_scale=0.1, immigrants=0.1, w_start=0.9, w_end=0.4, c1=1.5, c2=1.5, max_velocity=0.2,
@@ -312,7 +420,22 @@ class PSOGA(PSO):
 
 
 def eq45(X: np.ndarray) -> np.ndarray:
-    """The paper's test function, eq. (45), batched: z = −y sin(2πx) − x cos(2πy)."""
+    """The paper's test function, eq. (45), batched: z = −y sin(2πx) − x cos(2πy).
+
+    Parameters
+    ----------
+    X : ndarray
+        Points (P, 2) or (2,): columns x, y [1].
+
+    Returns
+    -------
+    ndarray
+        z (P,) [1].
+
+    References
+    ----------
+    Qi et al. (2022), Micromachines 13, 2156, eq. (45); minimum ``EQ45_MINIMUM`` (physics-notes §2.6).
+    """
     X = np.atleast_2d(X)
     x, y = X[:, 0], X[:, 1]
     return -y * np.sin(2 * np.pi * x) - x * np.cos(2 * np.pi * y)

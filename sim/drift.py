@@ -15,7 +15,28 @@ import numpy as np
 def bias_tc_g(
     die_c: np.ndarray, tc1_mg_per_c: float, tc2_mg_per_c2: float = 0.0, reference_c: float = 25.0
 ) -> np.ndarray:
-    """Zero-g level change [g]: b1·ΔT + b2·ΔT² (TCOff; the paper's ±0.8 mg/°C, unverified)."""
+    """Zero-g level change [g]: b1·ΔT + b2·ΔT² (TCOff; the paper's ±0.8 mg/°C, unverified).
+
+    Parameters
+    ----------
+    die_c : ndarray
+        Die temperature [°C].
+    tc1_mg_per_c : float
+        Linear bias tempco b1 [mg/°C].
+    tc2_mg_per_c2 : float
+        Quadratic bias tempco b2 [mg/°C²].
+    reference_c : float
+        Reference temperature T_ref [°C].
+
+    Returns
+    -------
+    ndarray
+        Bias change [g].
+
+    References
+    ----------
+    IEEE Std 1293 model equation (physics-notes §1.7, §2.5).
+    """
     dT = np.asarray(die_c, float) - reference_c
     return (tc1_mg_per_c * dT + tc2_mg_per_c2 * dT * dT) * 1e-3
 
@@ -26,22 +47,86 @@ def scale_factor_tc(
     """Relative sensitivity change [1]: s1·ΔT + s2·ΔT² (TCSo; 0.01 %/°C = 100 ppm/°C, recalled).
 
     The output's drift is this times the applied acceleration.
+
+    Parameters
+    ----------
+    die_c : ndarray
+        Die temperature [°C].
+    tc1_ppm_per_c : float
+        Linear scale-factor tempco s1 [ppm/°C].
+    tc2_ppm_per_c2 : float
+        Quadratic scale-factor tempco s2 [ppm/°C²].
+    reference_c : float
+        Reference temperature T_ref [°C].
+
+    Returns
+    -------
+    ndarray
+        Relative scale-factor change [1].
+
+    References
+    ----------
+    IEEE Std 1293 model equation (physics-notes §1.7, §2.5).
     """
     dT = np.asarray(die_c, float) - reference_c
     return (tc1_ppm_per_c * dT + tc2_ppm_per_c2 * dT * dT) * 1e-6
 
 
 def lowpass(x: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
-    """Causal first-order low-pass LP_τ(x), exact for piecewise-linear x, starting in equilibrium
-    at x[0]. ``tau_s = 0`` returns x. (Same discretisation as the thermal chain.)"""
+    """Causal first-order low-pass LP_τ(x) on a uniform time base.
+
+    Exact for piecewise-linear x, starting in equilibrium at x[0]. ``tau_s = 0`` returns x. (Same
+    discretisation as the thermal chain, :func:`sim.thermal.first_order_lag`.)
+
+    Parameters
+    ----------
+    x : ndarray
+        Input samples [any unit].
+    dt_s : float
+        Sample interval [s].
+    tau_s : float
+        Time constant τ [s], ≥ 0.
+
+    Returns
+    -------
+    ndarray
+        LP_τ(x) [unit of x].
+
+    References
+    ----------
+    Standard first-order lag τ dy/dt = x − y, discretised exactly with a first-order hold (see any
+    control or digital signal processing text).
+    """
     from sim.thermal import first_order_lag
 
     return first_order_lag(np.asarray(x, float), dt_s, tau_s)
 
 
 def maxwell_relaxation(delta_c: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
-    """Viscoelastic (Maxwell) stress state ΔT − LP_τ(ΔT) [°C]: follows fast changes, relaxes to
-    zero over τ at constant temperature (docs/diagnosis.md §2c; Prony sums add several terms)."""
+    """Viscoelastic (Maxwell) stress state ΔT − LP_τ(ΔT) [°C].
+
+    Follows fast changes, relaxes to zero over τ at constant temperature (docs/diagnosis.md §2c;
+    Prony sums add several terms).
+
+    Parameters
+    ----------
+    delta_c : ndarray
+        Temperature change ΔT [°C].
+    dt_s : float
+        Sample interval [s].
+    tau_s : float
+        Relaxation time τ [s].
+
+    Returns
+    -------
+    ndarray
+        ΔT − LP_τ(ΔT) [°C].
+
+    References
+    ----------
+    Maxwell element (spring and dashpot in series), docs/diagnosis.md §2c; standard viscoelastic
+    model.
+    """
     d = np.asarray(delta_c, float)
     return d - lowpass(d, dt_s, tau_s)
 
@@ -50,6 +135,24 @@ def smoothed_rate_c_per_s(temperature_c: np.ndarray, dt_s: float, tau_s: float) 
     """Rate of change seen through a first-order node: d/dt LP_τ(T) = (T − LP_τ(T)) / τ [°C/s].
 
     Causal, and needs no numerical differentiation of a noisy signal (docs/diagnosis.md §2i).
+
+    Parameters
+    ----------
+    temperature_c : ndarray
+        Temperature [°C].
+    dt_s : float
+        Sample interval [s].
+    tau_s : float
+        Time constant τ [s], > 0.
+
+    Returns
+    -------
+    ndarray
+        d/dt LP_τ(T) [°C/s].
+
+    References
+    ----------
+    Follows from the first-order lag τ dy/dt = T − y (standard result); docs/diagnosis.md §2i.
     """
     t = np.asarray(temperature_c, float)
     return (t - lowpass(t, dt_s, tau_s)) / tau_s
@@ -62,6 +165,24 @@ def play_operator_scan(x: np.ndarray, half_width: float, initial: float | None =
     log-step prefix scan replaces the recursion: about log2(N) vectorised passes over 2N arrays.
     Every output is one of x[k] ± r or ``initial`` (min/max only, no rounding), so any correct
     evaluation order gives bit-identical results.
+
+    Parameters
+    ----------
+    x : ndarray
+        Input path [any unit].
+    half_width : float
+        Half-width r of the play [unit of x], ≥ 0.
+    initial : float, optional
+        Output before the first sample [unit of x]; default x[0].
+
+    Returns
+    -------
+    ndarray
+        Play output p [unit of x].
+
+    References
+    ----------
+    Krasnosel'skii & Pokrovskii (1989), as :func:`play_operator`.
     """
     x = np.asarray(x, float)
     if x.size == 0:
@@ -84,10 +205,28 @@ def play_operator_scan(x: np.ndarray, half_width: float, initial: float | None =
 def play_operator(x: np.ndarray, half_width: float, initial: float | None = None) -> np.ndarray:
     """Play (backlash) operator: p[k] = clamp(p[k−1], x[k] − r, x[k] + r), p[−1] = ``initial``.
 
-    Rate-independent memory of the input path (Krasnosel'skii & Pokrovskii 1989; the elementary
-    hysteron of the Prandtl–Ishlinskii model). Runs the recursion as one compiled O(N) pass when
-    numba is installed (compiled once, cached on disk), else :func:`play_operator_scan`; both
-    return bit-identical arrays (min/max only).
+    Rate-independent memory of the input path (the elementary hysteron of the
+    Prandtl–Ishlinskii model). Runs the recursion as one compiled O(N) pass when numba is
+    installed (compiled once, cached on disk), else :func:`play_operator_scan`; both return
+    bit-identical arrays (min/max only).
+
+    Parameters
+    ----------
+    x : ndarray
+        Input path [any unit].
+    half_width : float
+        Half-width r of the play [unit of x], ≥ 0.
+    initial : float, optional
+        Output before the first sample [unit of x]; default x[0].
+
+    Returns
+    -------
+    ndarray
+        Play output p [unit of x].
+
+    References
+    ----------
+    Krasnosel'skii & Pokrovskii (1989), *Systems with Hysteresis*.
     """
     x = np.asarray(x, float)
     r = _half_width(half_width)
@@ -139,7 +278,25 @@ def _compile_play():
 
 
 def warmup_shape(time_since_power_on_s: np.ndarray, tau_s: float) -> np.ndarray:
-    """exp(−t_on/τ): the transient after each power-on (docs/diagnosis.md §2g)."""
+    """Warm-up transient exp(−t_on/τ) after each power-on [1] (docs/diagnosis.md §2g).
+
+    Parameters
+    ----------
+    time_since_power_on_s : ndarray
+        Time since the last power-on t_on [s].
+    tau_s : float
+        Warm-up time constant τ [s].
+
+    Returns
+    -------
+    ndarray
+        exp(−t_on/τ) [1].
+
+    References
+    ----------
+    Exponential settling, the form of docs/diagnosis.md §2g (a modelling choice, no further
+    source).
+    """
     return np.exp(-np.asarray(time_since_power_on_s, float) / tau_s)
 
 
@@ -151,6 +308,25 @@ def lowpass_at(time_s: np.ndarray, x: np.ndarray, tau_s: float) -> np.ndarray:
     b1 = (1 − e)/h − e — the discretisation of :func:`lowpass`, with its coefficients per step
     (a logger's clock jitters: a uniform-step filter on it is wrong by the jitter). Run as
     y_n = y_{n−1} + b0·(x_n − y_{n−1}) + b1·(x_{n−1} − y_{n−1}), so the DC gain is exactly 1.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Sample times [s], non-decreasing.
+    x : ndarray
+        Input samples [any unit].
+    tau_s : float
+        Time constant τ [s], ≥ 0.
+
+    Returns
+    -------
+    ndarray
+        LP_τ(x) [unit of x].
+
+    References
+    ----------
+    Standard first-order lag with a first-order-hold (ramp-invariant) discretisation; see any
+    digital control text.
     """
     t = np.asarray(time_s, float)
     x = np.asarray(x, float)

@@ -42,7 +42,33 @@ class GeometryError(ValueError):
 
 @dataclass(frozen=True)
 class CombGeometry:
-    """Comb-cell dimensions [µm] and proof-mass resonance [Hz] (defaults: physics-notes §2.5)."""
+    """Comb-cell dimensions [µm] and proof-mass resonance [Hz] (defaults: physics-notes §2.5).
+
+    Symbols of the paper's §2.1.3 (see the module docstring).
+
+    Attributes
+    ----------
+    b_um : float
+        Overlap length of moving and fixed fingers [µm].
+    e_um : float
+        Gap between a fixed finger's tip and the moving plate's long beam [µm].
+    h_um : float
+        Fixed-finger width [µm].
+    g_um : float
+        Finger length [µm].
+    u_um : float
+        Sensing gap [µm].
+    m_um : float
+        Moving-finger width [µm].
+    n_um : float
+        Width of the moving plate's long beam [µm].
+    j_um : float
+        Structure thickness [µm].
+    i_um : float
+        Moving-finger length [µm].
+    resonance_hz : float
+        Proof-mass resonance f0 [Hz].
+    """
 
     b_um: float = 100.0
     e_um: float = 5.0
@@ -63,14 +89,17 @@ class CombGeometry:
 
     @property
     def k1_um(self) -> float:
+        """Lever arm k1 = i + n/2 + g of eq. (15) [µm]."""
         return self.i_um + self.n_um / 2 + self.g_um
 
     @property
     def k2_um(self) -> float:
+        """Lever arm k2 = (m + h)/2 of eq. (15) [µm]."""
         return (self.m_um + self.h_um) / 2
 
     @property
     def k3_um(self) -> float:
+        """Lever arm k3 = g + n/2 of eq. (15) [µm]."""
         return self.g_um + self.n_um / 2
 
 
@@ -78,6 +107,24 @@ def displacement_m(acceleration_g: np.ndarray | float, resonance_hz: float, stif
     """Proof-mass displacement Δu = a / ω0² [m]; ``stiffness_ratio`` = k(T)/k(T0) (ω0² ∝ k).
 
     27.6 nm at 1 g and 3 kHz.
+
+    Parameters
+    ----------
+    acceleration_g : float or ndarray
+        Input acceleration a [g].
+    resonance_hz : float
+        Resonance f0 = ω0/2π at the reference temperature [Hz].
+    stiffness_ratio : float or ndarray
+        Spring stiffness k(T)/k(T0) [1].
+
+    Returns
+    -------
+    ndarray
+        Δu [m].
+
+    References
+    ----------
+    Static response of a spring–mass system, Δu = m a / k (standard result).
     """
     w0 = 2 * np.pi * resonance_hz
     return np.asarray(acceleration_g) * STANDARD_GRAVITY_M_PER_S2 / (w0 * w0 * np.asarray(stiffness_ratio))
@@ -85,7 +132,15 @@ def displacement_m(acceleration_g: np.ndarray | float, resonance_hz: float, stif
 
 @dataclass(frozen=True)
 class DeformedComb:
-    """Dimensions [m] of the comb at one temperature under one reading, and the spring ratio."""
+    """Dimensions [m] of the comb at one temperature under one reading, and the spring ratio.
+
+    Attributes
+    ----------
+    b, e, h, j, u : ndarray
+        Overlap length, tip gap, fixed-finger width, thickness and sensing gap [m].
+    stiffness_ratio : ndarray
+        Spring stiffness k(T)/k(T0) [1].
+    """
 
     b: np.ndarray
     e: np.ndarray
@@ -97,7 +152,29 @@ class DeformedComb:
 
 def deformed(geometry: CombGeometry, temperature_c: np.ndarray | float, reading: str = "S",
              reference_c: float = 25.0) -> DeformedComb:
-    """Comb dimensions at ``temperature_c`` under a thermal reading (eq. 15 and its corrections)."""
+    """Comb dimensions at ``temperature_c`` under a thermal reading (eq. 15 and its corrections).
+
+    Parameters
+    ----------
+    geometry : CombGeometry
+        Dimensions at the reference temperature [µm].
+    temperature_c : float or ndarray
+        Temperature [°C].
+    reading : {"P", "S", "H", "HE"}
+        Thermal reading (see the module docstring).
+    reference_c : float
+        Reference (strain-free) temperature [°C].
+
+    Returns
+    -------
+    DeformedComb
+        Dimensions [m] and stiffness ratio [1].
+
+    References
+    ----------
+    Qi et al. (2022), Micromachines 13, 2156, eq. (15); α(T), ε(T) of Okada & Tokumaru (1984);
+    E(T) of Gysin et al. (2004); k ∝ E w³ t / L³ for a beam spring (standard beam theory).
+    """
     if reading not in READINGS:
         raise ValueError(f"reading must be one of {READINGS}, got {reading!r}")
     t_k = np.asarray(temperature_c, float) + KELVIN
@@ -123,6 +200,29 @@ def capacitances_f(geometry: CombGeometry, temperature_c, acceleration_g=0.0, re
     """C1, C2′, C3′ [F] and the differential signal C2′ − C3′ of one finger cell (eqs. 16–19).
 
     ``C_static`` is C1 + C2 + C3 at zero input (eq. 17).
+
+    Parameters
+    ----------
+    geometry : CombGeometry
+        Dimensions [µm] and resonance [Hz].
+    temperature_c : float or ndarray
+        Temperature [°C].
+    acceleration_g : float or ndarray
+        Input acceleration [g].
+    reading : {"P", "S", "H", "HE"}
+        Thermal reading.
+    reference_c : float
+        Reference temperature [°C].
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``C1``, ``C2``, ``C3``, ``differential`` and ``C_static`` [F].
+
+    References
+    ----------
+    Qi et al. (2022), Micromachines 13, 2156, eqs. (10), (16)–(19) (eq. 10 with ε = ε0, see the
+    module docstring); parallel-plate capacitance ε0 A / d.
     """
     d = deformed(geometry, temperature_c, reading, reference_c)
     du = displacement_m(acceleration_g, geometry.resonance_hz, d.stiffness_ratio)
@@ -140,6 +240,28 @@ def drift_g(geometry: CombGeometry, temperature_c, acceleration_g=1.0, reading: 
     The readout is calibrated at ``reference_c``: a_ind = a_in·ΔC(T, a_in)/ΔC(T0, a_in) (exact
     inversion of the calibration at the same input). ``offset`` is the indication at zero input
     (zero for this symmetric comb), ``scale_factor`` the rest.
+
+    Parameters
+    ----------
+    geometry : CombGeometry
+        Dimensions [µm] and resonance [Hz].
+    temperature_c : float or ndarray
+        Temperature [°C].
+    acceleration_g : float or ndarray
+        Input acceleration a_in [g].
+    reading : {"P", "S", "H", "HE"}
+        Thermal reading.
+    reference_c : float
+        Calibration temperature T0 [°C].
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``total``, ``offset`` and ``scale_factor`` drift [g].
+
+    References
+    ----------
+    Differential signal of Qi et al. (2022), Micromachines 13, 2156, eqs. (16)–(19).
     """
     a = np.asarray(acceleration_g, float)
     sig_t = capacitances_f(geometry, temperature_c, a, reading, reference_c)["differential"]
@@ -158,6 +280,24 @@ def check_gaps(geometry: CombGeometry, full_scale_g: float = 2.0, reading: str =
 
     The sensing gap must stay open at full-scale travel (u(T) − Δu_FS > 0) and the tip gap
     e(T) > 0; the message names the temperature where a gap would close.
+
+    Parameters
+    ----------
+    geometry : CombGeometry
+        Dimensions [µm] and resonance [Hz].
+    full_scale_g : float
+        Full-scale input [g].
+    reading : {"P", "S", "H", "HE"}
+        Thermal reading.
+    t_low_c, t_high_c : float
+        Temperature range checked [°C].
+    reference_c : float
+        Reference temperature [°C].
+
+    Raises
+    ------
+    GeometryError
+        A gap closes in the range.
     """
     def margins(t_c: float) -> tuple[float, float]:
         d = deformed(geometry, t_c, reading, reference_c)
@@ -180,6 +320,21 @@ def check_gaps(geometry: CombGeometry, full_scale_g: float = 2.0, reading: str =
 
 
 def linear_slope_mg_per_c(temperature_c: np.ndarray, drift: np.ndarray) -> tuple[float, float]:
-    """Least-squares slope [mg/°C] and curvature [mg/°C²] of a drift curve [g] (quadratic fit)."""
+    """Least-squares slope [mg/°C] and curvature [mg/°C²] of a drift curve [g] (quadratic fit).
+
+    Parameters
+    ----------
+    temperature_c : ndarray
+        Temperature [°C].
+    drift : ndarray
+        Drift [g].
+
+    Returns
+    -------
+    slope : float
+        Slope of a straight-line fit [mg/°C].
+    curvature : float
+        Quadratic coefficient about 25 °C [mg/°C²].
+    """
     c2, c1, _ = np.polyfit(np.asarray(temperature_c) - 25.0, np.asarray(drift) * 1e3, 2)
     return float(np.polyfit(temperature_c, np.asarray(drift) * 1e3, 1)[0]), float(c2)

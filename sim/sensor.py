@@ -25,8 +25,9 @@ REGISTER_BITS = 16  # the output register the data are left-justified in
 
 @dataclass(frozen=True, kw_only=True)
 class AccelerometerConfig:
-    """One accelerometer axis at one full scale and output data rate: the figures the output
-    model needs, taken from a part file and the scenario (no defaults here: see ``twin/parts/``).
+    """One accelerometer axis at one full scale and output data rate: the figures the output model needs.
+
+    Taken from a part file and the scenario (no defaults here: see ``twin/parts/``).
 
     Parameters
     ----------
@@ -76,8 +77,26 @@ class AccelerometerConfig:
 
 
 def white_noise_sigma_g(noise_density_ug_per_sqrt_hz: float, bandwidth_hz: float) -> float:
-    """σ [g] of white noise of one-sided density ``nd`` [µg/√Hz] in ``bandwidth_hz``: nd·√B
-    (physics-notes §1.1: the bandwidth is the low-pass cut-off, a modelling choice)."""
+    """σ [g] of white noise of one-sided density nd [µg/√Hz] in a bandwidth B: nd·√B.
+
+    The bandwidth is the low-pass cut-off, a modelling choice (physics-notes §1.1).
+
+    Parameters
+    ----------
+    noise_density_ug_per_sqrt_hz : float
+        One-sided noise density nd [µg/√Hz].
+    bandwidth_hz : float
+        Noise bandwidth B [Hz].
+
+    Returns
+    -------
+    float
+        σ [g].
+
+    References
+    ----------
+    Standard result for band-limited white noise (σ² = nd² B); physics-notes §1.1.
+    """
     return noise_density_ug_per_sqrt_hz * 1e-6 * np.sqrt(bandwidth_hz)
 
 
@@ -88,6 +107,24 @@ def logger_white_sigma_g(sensor: AccelerometerConfig, logger_rate_hz: float, mod
     ``ODR / logger_rate`` samples of each logger interval (σ/√k; taken as independent, which
     holds while the low-pass cut-off lies above the ODR's Nyquist frequency, as the ODR tables
     of the parts shipped do).
+
+    Parameters
+    ----------
+    sensor : AccelerometerConfig
+        The axis (ODR [Hz], per-sample σ [g]).
+    logger_rate_hz : float
+        Logger sample rate [Hz], ≤ the ODR.
+    mode : {"latest", "average"}
+        How the logger reduces the ODR samples of one interval.
+
+    Returns
+    -------
+    float
+        σ [g] per logged sample.
+
+    References
+    ----------
+    σ/√k for the mean of k independent samples (standard result).
     """
     if logger_rate_hz > sensor.odr_hz:
         raise ValueError(f"logger rate {logger_rate_hz} Hz exceeds the ODR {sensor.odr_hz} Hz")
@@ -102,7 +139,28 @@ def gauss_markov(n: int, dt_s: float, sigma: float, tau_s: float, rng: np.random
     """Stationary first-order Gauss–Markov sequence (exact AR(1) discretisation).
 
     x[k+1] = φ x[k] + σ√(1−φ²) w[k], φ = exp(−dt/τ), x[0] ~ N(0, σ²).
-    Reference: Maybeck (1979), *Stochastic Models, Estimation and Control*, vol. 1, §4.9.
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    dt_s : float
+        Sample interval [s].
+    sigma : float
+        Stationary standard deviation σ [unit of the output, e.g. g].
+    tau_s : float
+        Correlation time τ [s].
+    rng : numpy.random.Generator
+        Source of the white sequence w.
+
+    Returns
+    -------
+    ndarray
+        x [unit of ``sigma``], length ``n``.
+
+    References
+    ----------
+    Maybeck (1979), *Stochastic Models, Estimation and Control*, vol. 1, §4.9.
     """
     if n == 0 or sigma == 0:
         return np.zeros(n)
@@ -113,20 +171,65 @@ def gauss_markov(n: int, dt_s: float, sigma: float, tau_s: float, rng: np.random
 
 
 def quantise_digits(a_g: np.ndarray, sensitivity_mg_per_digit: float, bits: int) -> np.ndarray:
-    """Round to the nearest digit and saturate at the ``bits``-bit two's-complement limits."""
+    """Round to the nearest digit and saturate at the ``bits``-bit two's-complement limits.
+
+    Parameters
+    ----------
+    a_g : ndarray
+        Acceleration [g].
+    sensitivity_mg_per_digit : float
+        One digit [mg].
+    bits : int
+        Output resolution [bit].
+
+    Returns
+    -------
+    ndarray of int16
+        Output [digit].
+    """
     lim = 2 ** (bits - 1)
     return np.clip(np.rint(np.asarray(a_g) * 1e3 / sensitivity_mg_per_digit), -lim, lim - 1).astype(np.int16)
 
 
 def left_justified_register(digits: np.ndarray, bits: int) -> np.ndarray:
-    """The 16-bit output register: ``bits``-bit data shifted left by ``16 − bits`` (drivers
-    convert with ``(raw >> (16 − bits)) × sensitivity``)."""
+    """The 16-bit output register: ``bits``-bit data shifted left by ``16 − bits``.
+
+    Drivers convert with ``(raw >> (16 − bits)) × sensitivity``.
+
+    Parameters
+    ----------
+    digits : ndarray
+        Output [digit].
+    bits : int
+        Output resolution [bit].
+
+    Returns
+    -------
+    ndarray of int16
+        Raw register value [LSB of the 16-bit register].
+    """
     return (np.asarray(digits, np.int16).astype(np.int32) << (REGISTER_BITS - bits)).astype(np.int16)
 
 
 @dataclass
 class SensorOutput:
-    """Output and its parts [g]."""
+    """Output and its parts [g].
+
+    Attributes
+    ----------
+    white_g : ndarray
+        White noise [g].
+    bias_instability_g : ndarray
+        Gauss–Markov bias [g].
+    analog_g : ndarray
+        Noiseless output plus noise, before quantisation [g].
+    digits : ndarray
+        Quantised output [digit].
+    output_g : ndarray
+        Quantised output [g].
+    saturated : ndarray of bool
+        Samples at a saturation limit.
+    """
 
     white_g: np.ndarray
     bias_instability_g: np.ndarray
@@ -137,6 +240,7 @@ class SensorOutput:
 
     @property
     def quantisation_g(self) -> np.ndarray:
+        """Quantisation (and saturation) error, output minus analog [g]."""
         return self.output_g - self.analog_g
 
 
@@ -153,6 +257,24 @@ def sensor_output(
 
     Separate generators for white noise and bias instability keep each stream unchanged when
     the other is switched off.
+
+    Parameters
+    ----------
+    true_g : ndarray
+        Noiseless output at the logger rate [g].
+    sensor : AccelerometerConfig
+        The axis.
+    logger_rate_hz : float
+        Logger sample rate [Hz].
+    rng_white, rng_bias : numpy.random.Generator
+        Generators of the white noise and of the bias instability.
+    logger_mode : {"latest", "average"}
+        See :func:`logger_white_sigma_g`.
+
+    Returns
+    -------
+    SensorOutput
+        Output and its parts [g].
     """
     true_g = np.asarray(true_g, float)
     n = true_g.size
@@ -168,11 +290,25 @@ def sensor_output(
 def allan_deviation(x: np.ndarray, rate_hz: float, taus_s: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Overlapping Allan deviation of a rate-sampled signal.
 
-    Reference: IEEE Std 952-1997, Annex C; Riley (2008), NIST SP 1065, eq. 14.
+    Parameters
+    ----------
+    x : ndarray
+        Signal [any unit, e.g. g].
+    rate_hz : float
+        Sample rate [Hz].
+    taus_s : ndarray, optional
+        Averaging times [s] (rounded to whole samples); default 40 log-spaced up to N/10 samples.
 
     Returns
     -------
-    taus_s, adev : arrays
+    taus_s : ndarray
+        Averaging times [s].
+    adev : ndarray
+        Allan deviation [unit of x].
+
+    References
+    ----------
+    IEEE Std 952-1997, Annex C; Riley (2008), NIST SP 1065, eq. 14.
     """
     x = np.asarray(x, float)
     n = x.size

@@ -29,11 +29,6 @@ import numpy as np
 from scipy.signal import lfilter
 
 
-# --------------------------------------------------------------------------------------------
-# Modal solver shared by both fidelities
-# --------------------------------------------------------------------------------------------
-
-
 def _mode_coefficients(lam: np.ndarray, dt_s: float, method: str, theta: float) -> tuple[np.ndarray, ...]:
     """Per-mode recursion ``z[k+1] = p z[k] + b1 u[k+1] + b0 u[k]`` for ``dz/dt = −λ z + u``.
 
@@ -54,19 +49,10 @@ def _mode_coefficients(lam: np.ndarray, dt_s: float, method: str, theta: float) 
     raise ValueError(f"method must be 'exact' or 'theta', got {method!r}")
 
 
-def simulate_network(
-    capacity: np.ndarray,
-    conductance: np.ndarray,
-    input_conductance: np.ndarray,
-    u: np.ndarray,
-    dt_s: float,
-    outputs: np.ndarray,
-    *,
-    method: str = "exact",
-    theta: float = 1.0,
-    initial_c: np.ndarray | None = None,
-) -> np.ndarray:
-    """Response of ``C dT/dt = −G T + g u``, by default starting in equilibrium at ``u[0]``.
+def simulate_network(capacity: np.ndarray, conductance: np.ndarray, input_conductance: np.ndarray, u: np.ndarray,
+                     dt_s: float, outputs: np.ndarray, *, method: str = "exact", theta: float = 1.0,
+                     initial_c: np.ndarray | None = None) -> np.ndarray:
+    """Response of ``C dT/dt = −G T + g u``, by default from equilibrium at ``u[0]`` (Incropera & DeWitt §5.2, §5.10).
 
     Parameters
     ----------
@@ -121,7 +107,19 @@ def simulate_network(
 def first_order_lag(u: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
     """Exact response of ``τ dy/dt = u − y`` to a piecewise-linear input, from equilibrium.
 
-    ``tau_s = 0`` returns ``u`` unchanged (an ideal thermal contact).
+    ``tau_s = 0`` returns ``u`` unchanged (an ideal thermal contact). Standard first-order lag.
+
+    Parameters
+    ----------
+    u : (N,) array
+        Input [°C], sampled every ``dt_s``.
+    dt_s, tau_s : float
+        Sample interval and time constant τ ≥ 0 [s].
+
+    Returns
+    -------
+    (N,) array
+        Response y [°C].
     """
     if tau_s < 0:
         raise ValueError(f"tau_s must be >= 0, got {tau_s}")
@@ -129,11 +127,6 @@ def first_order_lag(u: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
         return np.asarray(u, float).copy()
     one = np.ones(1)
     return simulate_network(one, one[None, :] / tau_s, one / tau_s, u, dt_s, one[None, :])[:, 0]
-
-
-# --------------------------------------------------------------------------------------------
-# Lumped network
-# --------------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -150,8 +143,7 @@ class LumpedChain:
     die_to_board_capacity_ratio : float
         C_die / C_board; the die's back-reaction on the board.
     board_heat_capacity_j_per_k : float
-        C_board [J/K]; sets the absolute scale for heat flows (energy balance), not the
-        temperatures.
+        C_board [J/K]; sets the absolute scale for heat flows (energy balance), not the temperatures.
     """
 
     board_tau_s: float = 300.0
@@ -160,7 +152,13 @@ class LumpedChain:
     board_heat_capacity_j_per_k: float = 50.0
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(C, G, g) of the board/die network with the air temperature as input."""
+        """(C, G, g) of the board/die RC network with the air temperature as input (Incropera & DeWitt §5.2).
+
+        Returns
+        -------
+        C, G, g : ndarray
+            Capacities [J/K], conductance matrix [W/K], input conductances [W/K].
+        """
         c_b = self.board_heat_capacity_j_per_k
         c_d = c_b * self.die_to_board_capacity_ratio
         g_ab = c_b / self.board_tau_s
@@ -170,17 +168,28 @@ class LumpedChain:
         return C, G, np.array([g_ab, 0.0])
 
     def node_weights(self) -> dict[str, np.ndarray]:
+        """Output weights of the nodes.
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``board`` and ``die`` weights over the two nodes [1].
+        """
         return {"board": np.array([1.0, 0.0]), "die": np.array([0.0, 1.0])}
-
-
-# --------------------------------------------------------------------------------------------
-# 1-D finite-volume stack
-# --------------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
 class Layer:
-    """One layer of the conduction stack (bottom to top)."""
+    """One layer of the conduction stack (bottom to top).
+
+    Attributes
+    ----------
+    name : str
+    thickness_mm, conductivity_w_per_mk, density_kg_per_m3, specific_heat_j_per_kgk : float
+        Thickness [mm], λ [W/(m K)], ρ [kg/m³], c [J/(kg K)].
+    cells : int
+        Finite-volume cells across the layer.
+    """
 
     name: str
     thickness_mm: float
@@ -191,6 +200,7 @@ class Layer:
 
     @property
     def volumetric_heat_capacity_j_per_m3k(self) -> float:
+        """ρ c [J/(m³ K)]."""
         return self.density_kg_per_m3 * self.specific_heat_j_per_kgk
 
 
@@ -199,6 +209,12 @@ class ConductionStack:
     """A 1-D layer stack, per unit area, with convective faces to the air node.
 
     ``h = inf`` makes a face isothermal at the air temperature (Dirichlet), ``h = 0`` adiabatic.
+
+    Attributes
+    ----------
+    layers : tuple of Layer
+    h_bottom_w_per_m2k, h_top_w_per_m2k, theta : float
+        Face convection coefficients [W/(m² K)]; θ of the time stepping (1 backward Euler, ½ Crank–Nicolson).
     """
 
     layers: tuple[Layer, ...]
@@ -207,7 +223,13 @@ class ConductionStack:
     theta: float = 1.0
 
     def cells(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Cell widths [m], conductivities, volumetric heat capacities and layer index."""
+        """Cell widths, conductivities, volumetric heat capacities and layer index.
+
+        Returns
+        -------
+        dx, k, rc, layer : ndarray
+            [m], [W/(m K)], [J/(m³ K)], index of each cell's layer.
+        """
         dx, k, rc, lid = [], [], [], []
         for j, layer in enumerate(self.layers):
             n = int(layer.cells)
@@ -218,7 +240,13 @@ class ConductionStack:
         return np.array(dx), np.array(k), np.array(rc), np.array(lid)
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(C, G, g) per unit area: harmonic-mean (series) conductance between cell centres."""
+        """(C, G, g) per unit area: harmonic-mean (series) conductance between cell centres (Patankar §4.2).
+
+        Returns
+        -------
+        C, G, g : ndarray
+            Capacities [J/(m² K)], conductance matrix and input conductances [W/(m² K)].
+        """
         dx, k, rc, _ = self.cells()
         n = dx.size
         half_r = dx / (2 * k)  # centre-to-face resistance [m² K/W]
@@ -238,7 +266,17 @@ class ConductionStack:
         return rc * dx, G, g
 
     def layer_weights(self, name: str) -> np.ndarray:
-        """Heat-capacity-weighted mean over the cells of layer ``name``."""
+        """Heat-capacity-weighted mean over the cells of layer ``name``.
+
+        Parameters
+        ----------
+        name : str
+
+        Returns
+        -------
+        ndarray
+            Weights over all cells [1], summing to 1.
+        """
         names = [layer.name for layer in self.layers]
         if name not in names:
             raise KeyError(f"no layer named {name!r}; layers are {names}")
@@ -247,22 +285,38 @@ class ConductionStack:
         return w / w.sum()
 
     def node_weights(self) -> dict[str, np.ndarray]:
+        """Output weights of every layer (:meth:`layer_weights`).
+
+        Returns
+        -------
+        dict of str to ndarray
+            Weights [1] per layer name.
+        """
         names = [layer.name for layer in self.layers]
         return {name: self.layer_weights(name) for name in names}
 
     @property
     def thickness_m(self) -> float:
+        """Total thickness [m]."""
         return sum(layer.thickness_mm for layer in self.layers) * 1e-3
 
 
 def stored_energy_j(capacity: np.ndarray, temperature_c: np.ndarray, reference_c: float = 0.0) -> np.ndarray:
-    """Heat stored relative to ``reference_c``: Σ C_i (T_i − T_ref) [J or J/m²]."""
+    """Heat stored relative to ``reference_c``: Σ C_i (T_i − T_ref) [J or J/m²] (sensible heat, standard result).
+
+    Parameters
+    ----------
+    capacity, temperature_c : ndarray
+        Node capacities (n,) [J/K or J/(m² K)] and temperatures (..., n) [°C].
+    reference_c : float
+        Reference temperature [°C].
+
+    Returns
+    -------
+    ndarray
+        Stored heat [J or J/m²].
+    """
     return (np.asarray(temperature_c) - reference_c) @ np.asarray(capacity)
-
-
-# --------------------------------------------------------------------------------------------
-# The chain: set-point → air → device → thermometer
-# --------------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -271,6 +325,12 @@ class Thermometer:
 
     ``tau_s = 0`` on the die node means the thermometer reads the die with no lag (a device
     with nothing hidden). Noise, resolution and accuracy are applied by :func:`read_thermometer`.
+
+    Attributes
+    ----------
+    attached_to : str
+    tau_s, noise_c, resolution_c, offset_c, sample_rate_hz : float
+        Contact time constant [s]; white-noise σ, resolution, fixed offset [°C]; sample rate [Hz].
     """
 
     attached_to: str = "board"
@@ -283,7 +343,15 @@ class Thermometer:
 
 @dataclass
 class ThermalResult:
-    """Temperatures [°C] on the scenario time base."""
+    """Temperatures [°C] on the scenario time base.
+
+    Attributes
+    ----------
+    time_s, setpoint_c, air_c, board_c, die_c, probe_c : ndarray
+        Time [s]; set-point, air, board, die and thermometer-element temperatures [°C].
+    extra : dict of str to ndarray
+        Other nodes of a stack [°C].
+    """
 
     time_s: np.ndarray
     setpoint_c: np.ndarray
@@ -294,25 +362,15 @@ class ThermalResult:
     extra: dict[str, np.ndarray] = field(default_factory=dict)
 
 
-def simulate_chain(
-    time_s: np.ndarray,
-    setpoint: np.ndarray,
-    air_tau_s: float,
-    device: LumpedChain | ConductionStack,
-    thermometer: Thermometer,
-    *,
-    board_node: str = "board",
-    die_node: str = "die",
-    thermal_step_s: float | None = None,
-) -> ThermalResult:
+def simulate_chain(time_s: np.ndarray, setpoint: np.ndarray, air_tau_s: float, device: LumpedChain | ConductionStack,
+                   thermometer: Thermometer, *, board_node: str = "board", die_node: str = "die",
+                   thermal_step_s: float | None = None) -> ThermalResult:
     """Run the thermal chain on a uniform time base.
 
     Parameters
     ----------
-    time_s : (N,) array
-        Uniform sample times [s].
-    setpoint : (N,) array
-        Chamber set-point [°C] at ``time_s``.
+    time_s, setpoint : (N,) array
+        Uniform sample times [s] and the chamber set-point [°C] at them.
     air_tau_s : float
         Time constant of the chamber air following its set-point (controller + mixing) [s].
     device : LumpedChain or ConductionStack
@@ -322,12 +380,13 @@ def simulate_chain(
     board_node, die_node : str
         Names of the board and die nodes (for a stack: layer names).
     thermal_step_s : float, optional
-        Coarser step for the thermal solve, linearly interpolated back to ``time_s``. The
+        Coarser step for the thermal solve [s], linearly interpolated back to ``time_s``. The
         temperatures vary on time scales of tens of seconds, so 1 s loses nothing measurable.
 
     Returns
     -------
     ThermalResult
+        Temperatures [°C] on ``time_s``.
     """
     time_s = np.asarray(time_s, float)
     dt = float(time_s[1] - time_s[0]) if time_s.size > 1 else 1.0
@@ -355,31 +414,35 @@ def simulate_chain(
     nodes["probe"] = first_order_lag(nodes[thermometer.attached_to], dt, thermometer.tau_s)
     if t_solve is not time_s:
         nodes = {k: np.interp(time_s, t_solve, v) for k, v in nodes.items()}
-    return ThermalResult(
-        time_s=time_s,
-        setpoint_c=np.asarray(setpoint, float),
-        air_c=nodes["air"],
-        board_c=nodes[board_node],
-        die_c=nodes[die_node],
-        probe_c=nodes["probe"],
-        extra={k: v for k, v in nodes.items() if k in host_names},
-    )
+    return ThermalResult(time_s=time_s, setpoint_c=np.asarray(setpoint, float), air_c=nodes["air"],
+                         board_c=nodes[board_node], die_c=nodes[die_node], probe_c=nodes["probe"],
+                         extra={k: v for k, v in nodes.items() if k in host_names})
 
 
-def read_thermometer(
-    time_s: np.ndarray, probe_c: np.ndarray, thermometer: Thermometer, rng: np.random.Generator
-) -> np.ndarray:
+def read_thermometer(time_s: np.ndarray, probe_c: np.ndarray, thermometer: Thermometer,
+                     rng: np.random.Generator) -> np.ndarray:
     """What the logger records: sample-and-hold at the thermometer's rate, noise, offset, resolution.
 
     The paper's system is specified as ±0.03 °C at 10 Hz; the default reads that as a 3σ bound
     on white noise (σ = 0.01 °C) with 0.01 °C resolution and no fixed offset.
+
+    Parameters
+    ----------
+    time_s, probe_c : (N,) array
+        Time [s] and true element temperature [°C].
+    thermometer : Thermometer
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    (N,) array
+        Logged temperature [°C].
     """
     time_s = np.asarray(time_s, float)
     t_sample = np.floor(time_s * thermometer.sample_rate_hz + 1e-9) / thermometer.sample_rate_hz
     held_idx = np.clip(np.searchsorted(time_s, t_sample, side="left"), 0, time_s.size - 1)
     value = probe_c[held_idx] + thermometer.offset_c
-    # One noise draw per thermometer sample, held with the value.
-    _, first = np.unique(t_sample, return_inverse=True)
+    _, first = np.unique(t_sample, return_inverse=True)  # one noise draw per thermometer sample, held with the value
     noise = rng.normal(0.0, thermometer.noise_c, first.max() + 1)[first] if thermometer.noise_c > 0 else 0.0
     value = value + noise
     if thermometer.resolution_c > 0:

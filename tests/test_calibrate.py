@@ -3,11 +3,13 @@ files whose documented formula reproduces our correction, validation on held-out
 one-line refusals of logs that cannot be calibrated."""
 
 import json
+import re
 
 import numpy as np
 import pytest
 
 from conftest import SHARED, run_cli
+from schemas import check_schema
 from logfixtures import chamber_run, write_dataflash, write_ulog
 from twin.calibration.deploy import correction_g
 from twin.firmware import (G0_M_S2, firmware_correct_ardupilot, firmware_offset_px4, read_ardupilot_parm,
@@ -30,13 +32,25 @@ def _one_line_error(r):
 def ulog_cal(tmp_path_factory):
     d = tmp_path_factory.mktemp("ulog")
     log = write_ulog(d / "chamber.ulg", chamber_run(n=600, heater=1))
-    r = run_cli("calibrate", str(log), "-o", str(d / "cal.json"))
+    r = run_cli("calibrate", str(log), "-o", str(d / "cal.json"), "--report", str(d / "report"))
     assert r.returncode == 0, r.stderr
     return log, d / "cal.json", json.loads((d / "cal.json").read_text())
 
 
+def test_calibration_report_reads_as_sentences_and_tables(ulog_cal):
+    """The page a person opens: the verdict first, per IMU, with no Python representation of a value."""
+    html = (ulog_cal[1].parent / "report" / "report.html").read_text()
+    body = html.split("<body>")[1]
+    visible = re.sub(r"<[^>]+>|data:image/png;base64,[A-Za-z0-9+/=]+", " ", body)
+    assert not re.search(r"\b(True|False|None|nan)\b|\{'|\['", visible), visible[:300]
+    assert body.index("Recommended: PX4:") < body.index("<h2>IMU 0")  # the summary comes first
+    assert [f"<h2>IMU {i} (device id " in body for i in range(3)] == [True] * 3
+    assert body.count("<img src='data:image/png;base64,") >= 3 and "http" not in body
+
+
 def test_ulog_three_instances_to_px4_params_round_trip(ulog_cal, tmp_path):
     log, cal, doc = ulog_cal
+    check_schema(doc, "calibration")  # the document follows the schema twin schema ships for it
     assert [i["instance"] for i in doc["imus"]] == [0, 1, 2]
     out = tmp_path / "tc.params"
     r = run_cli("firmware", str(cal), "--format", "px4", "-o", str(out))
@@ -147,6 +161,7 @@ def test_compare_three_axes_of_the_tofupilot_log_reports_per_axis_with_orientati
                 "--report", str(tmp_path / "rep"))
     assert r.returncode == 0, r.stderr
     result = json.loads(r.stdout)
+    check_schema(result, "compare")
     imu = result["imus"][0]
     # a board lying on its face: z reads −1 g, x and y read 0 g (gravity projection, found in the data)
     assert imu["orientation_applied_g"] == {"x": 0.0, "y": 0.0, "z": -1.0}
@@ -167,7 +182,9 @@ def test_six_position_log_gives_offset_and_scale_factor_tempcos_and_what_px4_lea
     r = run_cli("calibrate", str(h5), "-o", str(cal))
     assert r.returncode == 0, r.stderr
     print(r.stdout)
-    imu = json.loads(cal.read_text())["imus"][0]
+    doc = json.loads(cal.read_text())
+    check_schema(doc, "calibration")  # with the orientations record
+    imu = doc["imus"][0]
     o = imu["orientations"]
     assert o["kind"] == "six-position" and sorted(o["found"]) == ["+x", "+y", "+z", "-x", "-y", "-z"]
     for axis, tcso, tcoff in zip("xyz", (120.0, -85.0, 210.0), (0.5, -0.3, 0.8)):

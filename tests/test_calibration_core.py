@@ -4,14 +4,12 @@ Simulated truths are built here (seeded); the real-data acceptance reads the Tof
 place from ../shared (one static orientation, one cycle 51.6 → −17.6 → 74.0 → 36.3 °C).
 """
 
-import time
-
 import numpy as np
 import pytest
 
 from conftest import SHARED
 from sim.drift import lowpass
-from twin.calibration import (CubicCompensator, LagAwareCompensator, PolynomialCompensator, make_X,
+from twin.calibration import (CubicCompensator, LagAwareCompensator, TemperaturePolynomial, make_X,
                               protocol_heating_vs_cooling, six_position, split_branches, validate)
 
 TOFU = SHARED / "data" / "real" / "tofupilot_imu_thermal" / "imu_raw_data.tsv"
@@ -104,8 +102,17 @@ def test_validation_on_simulated_truth_reaches_the_noise():
     protocol = protocol_heating_vs_cooling(t, temp_c, reverse=False)
     res = validate({"cubic": CubicCompensator(), "lag-aware": LagAwareCompensator()}, t, temp_c, accel_g, protocol)
     print("\n" + res.table(reference="cubic"))
-    assert np.allclose(res.noise_floor_mg, 0.3, rtol=0.1)
-    assert np.all(res.rms_mg("lag-aware") < 1.15 * 0.3)
+    # The floor is σ from first differences, / √2: the differences of white noise are MA(1) (lag-1
+    # correlation −½), so σ̂ from N of them has a relative standard error of √(3/(4N)); it is the
+    # median over the two held-out branches (3,120 and 565 samples) and the two methods, about the
+    # mean of the two branches': 2.0 %. Measured over seeds 1–40 × 3 axes: SD 2.1 %, largest 5.5 %
+    # (this seed: −2.9 % to +2.4 %). 4 standard errors: 8 %.
+    assert np.allclose(res.noise_floor_mg, 0.3, rtol=0.08)
+    # Reaching the noise: the held-out RMS of white noise alone, 3,687 samples, has a relative
+    # standard error of 1/√(2N) = 1.2 %; the fitted model adds its own estimation error. Measured
+    # over seeds 1–40 × 3 axes: mean +0.5 %, SD 1.5 %, largest +4.7 % above σ (this seed: up to
+    # +1.4 %). The mean plus 4 SD: 7 % (the cubic leaves 3 to 30 times the noise here).
+    assert np.all(res.rms_mg("lag-aware") < 1.07 * 0.3)
     assert np.all(res.rms_mg("cubic") > 2 * res.rms_mg("lag-aware"))
     assert res.best_method == ("lag-aware",) * 3
 
@@ -160,22 +167,25 @@ def test_six_position_recovers_scale_factor_tempco():
 def test_tofupilot_heating_to_cooling(tofu):
     time_s, temp_c, accel_g = tofu
     protocol = protocol_heating_vs_cooling(time_s, temp_c, reverse=False)
-    models = {"cubic (PX4, 35 °C)": CubicCompensator(35.0), "polynomial (block CV)": PolynomialCompensator(),
+    models = {"cubic (PX4, 35 °C)": CubicCompensator(35.0), "polynomial (block CV)": TemperaturePolynomial(),
               "lag-aware": LagAwareCompensator()}
     res = validate(models, time_s, temp_c, accel_g, protocol)
     print("\n" + res.table(reference="cubic (PX4, 35 °C)"))
     cubic, lag = res.rms_mg("cubic (PX4, 35 °C)"), res.rms_mg("lag-aware")
     print("lag-aware below cubic: " + " / ".join(f"{100 * (1 - v / w):.0f} %" for v, w in zip(lag, cubic)))
-    start = time.perf_counter()
     mask = np.zeros(time_s.size, bool)
     mask[protocol.folds[0].train] = True
     fitted = LagAwareCompensator().fit(make_X(time_s, temp_c), accel_g, mask=mask)
-    print(f"three-axis lag-aware fit: {time.perf_counter() - start:.2f} s\n{fitted.equation()}")
+    print(f"three-axis lag-aware fit:\n{fitted.equation()}")
     for c in fitted.candidates_:
         print(f"  {c.name:45s} BIC {c.bic:10.1f}  k {c.n_params}  train RMS "
               + " / ".join(f"{v:.3f}" for v in c.rms_mg))
     assert cubic == pytest.approx([1.15, 3.49, 8.86], abs=0.02)  # the protocol check
-    assert np.allclose(res.noise_floor_mg, [0.33, 0.33, 0.54], rtol=0.1)
+    # One fixed log: only the fitted models move the floor, and first differences cancel what they
+    # differ in. Measured, the three methods' floors on one branch agree within 0.4 % (largest: x
+    # on cooling 1, 0.3263 to 0.3276 mg); the median over branches and methods is 0.328 / 0.337 /
+    # 0.563 mg. 1 %: that spread and the rounding of the third digit (0.15 %).
+    assert np.allclose(res.noise_floor_mg, [0.328, 0.337, 0.563], rtol=0.01)
     # Everything in LagAwareCompensator is chosen on the heating rows (mask) only; the cooling
     # branches are only scored. Fragile, though: x's margin is 3 %, degree 4-6 or shared τ's fail.
     assert np.all(lag <= 0.6 * cubic)  # the 40 % target, met on every axis

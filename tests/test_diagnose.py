@@ -1,12 +1,14 @@
 """Compare / diagnose: hidden effects found on sealed CSVs, null controls, real logs, contract."""
 
 import json
+import re
 
 import pytest
 
 from conftest import ROOT, SHARED, run_cli
-from twin.diagnosis.compare import compare_measurement
-from twin.diagnosis.hidden import draw_case
+from schemas import check_schema
+from twin.finding.build import compare_measurement
+from twin.datasets.hidden import draw_case
 from twin.effects import get_effect
 from twin.measurement import MeasurementError, load_measurements
 
@@ -22,13 +24,20 @@ FAMILY_CASES = {
 }
 
 
+def compare_json(twin, measurement, with_effects):
+    """The compare result as ``twin compare --json`` writes it."""
+    return compare_measurement(twin, measurement, with_effects)[1].to_json()
+
+
 def _compare_csv(tmp_path, case, *extra):
     csv = case.write_csv(tmp_path)
     scn = tmp_path / "twin.yaml"
     scn.write_text(case.twin.text)
     r = run_cli("compare", str(scn), str(csv), "--json", "-", *extra)
     assert r.returncode == 0, r.stderr
-    return json.loads(r.stdout)
+    doc = json.loads(r.stdout)
+    check_schema(doc, "compare")
+    return doc
 
 
 @pytest.mark.parametrize("family,kind", FAMILY_CASES.items(), ids=list(FAMILY_CASES))
@@ -53,7 +62,7 @@ def _sweep(kind, level="clear"):
     out = []
     for seed in SEEDS:
         case = draw_case(kind, seed, level)
-        _, result = compare_measurement(case.twin, case.measurement, [])
+        result = compare_json(case.twin, case.measurement, [])
         out.append((case, result))
     return out
 
@@ -75,7 +84,7 @@ def test_named_effect_time_constant_is_refined_between_grid_points(kind, key):
     grid_err, refined_err = [], []
     for seed in (2000, 2001, 2002):
         case = draw_case(kind, seed)
-        _, r = compare_measurement(case.twin, case.measurement, [])
+        r = compare_json(case.twin, case.measurement, [])
         top = r["candidates"][0]
         name = "tau_s" if key == "die_tau_s" else key
         truth = case.truth[key]
@@ -94,7 +103,7 @@ def test_null_cases_at_most_1_of_20_false_positives(kind):
 
 def test_single_orientation_scale_factor_is_aliased_not_detected():
     case = draw_case("scale_factor_one_orientation", seed=5)
-    _, r = compare_measurement(case.twin, case.measurement, [])
+    r = compare_json(case.twin, case.measurement, [])
     assert not r["missing_effect_detected"]
     named = {u["effect"] for u in r["untestable"]} | {e for a in r["aliases"] for e in a["effects"]}
     assert "scale_factor_tc" in named
@@ -103,7 +112,7 @@ def test_single_orientation_scale_factor_is_aliased_not_detected():
 
 def test_probe_offset_is_listed_untestable():
     case = draw_case("probe_offset", seed=6)
-    _, r = compare_measurement(case.twin, case.measurement, [])
+    r = compare_json(case.twin, case.measurement, [])
     entry = next(u for u in r["untestable"] if u["effect"] == "probe_offset")
     assert "unidentifiable" in entry["reason"] and "probe" in entry["remedy"]
     assert "probe_offset" not in r["selected"]
@@ -116,7 +125,7 @@ def _cand(effect, family, dbic, significant, novelty=0.5):
 
 
 def test_selection_withholds_a_significant_effect_outranked_by_another_family():
-    from twin.diagnosis.problem import DiagnosisConfig
+    from twin.estimation.problem import DiagnosisConfig
     from twin.diagnosis.selection import next_selection
 
     cfg = DiagnosisConfig()
@@ -138,7 +147,7 @@ def test_sub_threshold_hysteresis_is_not_named_as_a_lag():
     # seed found by benchmarks/bench_diagnosis.py (A12): hysteresis leads on ΔBIC but misses the
     # held-out-gain threshold while the gradient lag passes it; naming the lag was a misattribution
     case = draw_case("hysteresis", seed=10074, level="sub")
-    _, r = compare_measurement(case.twin, case.measurement, [])
+    r = compare_json(case.twin, case.measurement, [])
     assert not r["missing_effect_detected"] and r["confidence"] == "uncertain"
     assert r["withheld"][0]["outranked_by_family"] == "hysteresis"
     assert "none is named" in r["finding"]
@@ -148,7 +157,7 @@ def test_a_gradient_of_its_own_sign_is_named_a_gradient_not_a_lag():
     # a lag lowers the output while heating (r ≈ −b₁τ dT/dt); this gradient raises it, so the lag's
     # whole model, whose amplitude follows from the calibrated tempco, cannot fit it
     case = draw_case("thermal_gradient", seed=2003)
-    _, r = compare_measurement(case.twin, case.measurement, [])
+    r = compare_json(case.twin, case.measurement, [])
     assert r["selected"] == ["thermal_gradient"], r["finding"]
     grad, lag = r["family_choices"][0]["models"]
     assert (grad["effect"], lag["effect"]) == ("thermal_gradient", "thermal_lag")
@@ -163,13 +172,14 @@ def test_whole_models_name_the_lag_where_its_screening_grid_ranks_the_gradient_f
     orientation. Lag and gradient columns are then one shape; screening ranks the gradient first
     (its grid has 300 s, the lag's 240 and 480 s). Calibrated whole they leave the same residual
     within 1 %, and the lag, whose amplitude follows from the tempco, needs one parameter fewer."""
-    from twin.fleet.simulate import load_fleet_scenario, simulate_unit
+    from twin.fleet.scenario import load_fleet_scenario
+    from twin.fleet.simulate import simulate_unit
     from twin.measurement import ColumnMap
     from twin.model.scenario import load_scenario
 
     fs = load_fleet_scenario(ROOT / "scenarios/fleet_mixed.yaml")
     csv = simulate_unit(fs, 3, str(tmp_path / "unit0003.csv"))
-    _, r = compare_measurement(load_scenario(ROOT / "scenarios/fleet_base.yaml"),
+    r = compare_json(load_scenario(ROOT / "scenarios/fleet_base.yaml"),
                                load_measurements([csv], ColumnMap()), [])
     assert r["candidates"][0]["effect"] == "thermal_gradient"
     assert r["selected"] == ["thermal_lag"] and r["confidence"] == "confident", r["finding"]
@@ -184,7 +194,7 @@ def test_whole_models_name_the_lag_where_its_screening_grid_ranks_the_gradient_f
 
 def test_two_simultaneous_effects_are_both_selected():
     case = draw_case("lag_and_scale_factor", seed=8)
-    _, r = compare_measurement(case.twin, case.measurement, [])
+    r = compare_json(case.twin, case.measurement, [])
     families = {next(c["family"] for c in r["candidates"] if c["effect"] == e) for e in r["selected"]}
     assert {"thermal_lag", "scale_factor"} <= families
 
@@ -214,6 +224,9 @@ def test_json_contract_and_report(tmp_path):
     html = (rep / "report.html").read_text()
     assert html.count("data:image/png;base64,") >= 5 and "http" not in html.split("<body>")[1]
     assert "thermal_lag" in html and "Ledger" in html
+    # a page a person reads: no Python representation of a value in the visible text
+    visible = re.sub(r"<[^>]+>|data:image/png;base64,[A-Za-z0-9+/=]+", " ", html.split("<body>")[1])
+    assert not re.search(r"\b(True|False|None|nan)\b|\{'|\['", visible), re.search(r".{40}\b(True|False|None|nan)\b.{40}|.{40}\{'.{40}", visible)
 
 
 def test_compare_is_blind_to_device_effects_and_truth(tmp_path):

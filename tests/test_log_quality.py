@@ -13,8 +13,8 @@ from conftest import run_in_process
 from twin.calibration import cluster_orientations, detect_static_segments
 from twin.diagnosis.axes import OrientationError, axis_rows
 from twin.measurement import ImuLog, Measurement
-from twin.measurement.quality import (LogQualityError, assess_log, assess_measurement, cluster_directions,
-                                      thermal_directions)
+from twin.measurement.log_quality import LogQualityError
+from twin.measurement.quality import assess_log, assess_measurement, cluster_directions, thermal_directions
 
 RATE_HZ = 50.0
 MARGIN_S, WINDOW_S = 2.0, 1.0  # the stage's defaults: a found stretch may lose this much beside each move
@@ -237,7 +237,7 @@ def _drift_log(knots_t, knots_c, seed=5, tau_s=400.0):
 
 
 def test_heating_versus_cooling_is_said_only_when_both_are_in_the_data(paper_path):
-    from twin.diagnosis.compare import compare_measurement
+    from twin.finding.build import compare_measurement
     from twin.model.scenario import load_scenario
 
     loaded = load_scenario(paper_path)
@@ -245,13 +245,13 @@ def test_heating_versus_cooling_is_said_only_when_both_are_in_the_data(paper_pat
     q = assess_measurement(heating)
     assert q.has_heating and not q.has_cooling
     _, result = compare_measurement(loaded, heating, [])
-    assert result["selected"][:1] == ["thermal_lag"]
-    assert "between heating and cooling" not in result["finding"], result["finding"]
+    assert result.selected[:1] == ("thermal_lag",)
+    assert "between heating and cooling" not in result.finding, result.finding
     cycle = _drift_log([0, 1800, 3600, 7200, 9000, 12600], [-10, -10, 20, 20, -10, -10])
     d = thermal_directions(cycle.time_s, cycle.temperature_c)
     assert d.has_heating and d.has_cooling and d.heating_c == pytest.approx(30, abs=1)
     _, result = compare_measurement(loaded, cycle, [])
-    assert "changes sign between heating and cooling" in result["finding"], result["finding"]
+    assert "changes sign between heating and cooling" in result.finding, result.finding
 
 
 def test_a_log_that_is_mostly_flight_does_not_call_its_vibration_still():

@@ -11,16 +11,10 @@ import pytest
 from scipy.signal import lfilter
 
 import sim.drift as drift
-from twin.diagnosis.decimate import (
-    block_aligned_factor,
-    block_sums,
-    decimate,
-    decimation_factor,
-    time_since_power_on_s,
-    white_sigma_in_place,
-)
-from twin.diagnosis.noise import white_noise_sigma_from_differences, white_sigma_of_differences
-from twin.diagnosis.problem import DiagnosisConfig, Problem
+from twin.diagnosis.sample_rate import block_sums, white_sigma_in_place
+from twin.estimation.decimate import block_aligned_factor, decimate, decimation_factor, time_since_power_on_s
+from twin.estimation.noise import white_noise_sigma_from_differences, white_sigma_of_differences
+from twin.estimation.problem import DiagnosisConfig, Problem
 from twin.diagnosis.screen import screening_progress
 from twin.effects import get_effect
 from twin.measurement import Measurement
@@ -136,22 +130,28 @@ def test_block_sums_give_the_full_rate_residual_figures():
 def test_fast_log_diagnosed_on_means_names_the_same_lag_as_full_rate(monkeypatch):
     """A 30 Hz, 2.75-h lag log: diagnosed on 10 Hz means and at full rate, the same effect, τ
     within 3 % (its profile is flat to ~10 % here) and the per-sample figures within 0.5 %."""
-    from twin.diagnosis.compare import compare_measurement
+    from twin.finding.build import compare_measurement
     from twin.model.scenario import load_scenario
 
     loaded = load_scenario(Path(__file__).resolve().parents[1] / "scenarios/hidden_thermal_lag.yaml")
     m = _chamber_log(2.75, 30.0)
     ticks = []
     with screening_progress(ticks.append):  # the hook a progress bar hangs on
-        _, fast = compare_measurement(loaded, m, [])
+        fast = compare_measurement(loaded, m, [])[1].to_json()
     assert len(ticks) >= sum(len(get_effect(c["effect"]).grid()) for c in fast["candidates"])
     monkeypatch.setenv("TDE_TWIN_FULL_RATE", "1")
-    _, full = compare_measurement(loaded, m, [])
+    full = compare_measurement(loaded, m, [])[1].to_json()
     assert fast["measurement"]["diagnosed_on_means_of"] == 3 and "diagnosed_on_means_of" not in full["measurement"]
     assert fast["selected"][:1] == full["selected"][:1] == ["thermal_lag"]
     tau = [next(c for c in r["candidates"] if c["effect"] == "thermal_lag")["parameters_refined"]["tau_s"]
            for r in (fast, full)]
-    assert tau[0] == pytest.approx(tau[1], rel=0.03) and 150 < tau[1] < 230
+    assert tau[0] == pytest.approx(tau[1], rel=0.03)
+    # The die lags the thermometer by 190 − 2 = 188 s on the ramps (the twin calibrated with the
+    # lag finds 188.05 s, 95 % profile interval ±0.05 s). The screening's τ, refined on its ΔBIC
+    # atop a twin without the lag (whose tempco takes part of the lag's column), reads high:
+    # measured over seeds 1–9, 199.9–203.8 s at full rate, mean +7.4 %, SD 0.77 % (this seed
+    # 202.9 s). The mean plus 4 SD: 10.5 %, so within 11 % of 188 s.
+    assert abs(tau[1] / 188.0 - 1) < 0.11, tau
     for key in ("rms_residual_g", "noise_floor_g"):
         assert fast[key] == pytest.approx(full[key], rel=5e-3)
     assert fast["samples"] == full["samples"] == len(m)

@@ -1,4 +1,4 @@
-"""The random-walk + AR noise model (``twin.diagnosis.noise.fit_walk_ar``), tested against known truth.
+"""The random-walk + AR noise model (``twin.estimation.noise.fit_walk_ar``), tested against known truth.
 
 Local-level model y = ε + Σ η, Var η / Var ε = q: its first difference is an MA(1) whose parameter is
 θ = ((q + 2) − √(q² + 4q)) / 2 (Harvey 1989, §2.3.2), the walk filter's exact whitening parameter.
@@ -7,10 +7,9 @@ Local-level model y = ε + Σ η, Var η / Var ε = q: its first difference is a
 import numpy as np
 import pytest
 
-from twin.diagnosis.compare import compare_measurement
-from twin.diagnosis.discover_report import discover_into
-from twin.diagnosis.noise import WALK_THETAS, fit_walk_ar, walk_filter
-from twin.diagnosis.outside import draw_outside
+from twin.finding.build import compare_measurement
+from twin.estimation.noise import WALK_THETAS, fit_walk_ar, walk_filter
+from twin.datasets.outside import draw_outside
 
 N = 2000
 RUN = np.zeros(N, int)
@@ -57,8 +56,7 @@ def test_bias_random_walk_is_neither_aging_nor_a_discovered_trend(seed):
     """Null data seeds where an AR-only noise model named aging_drift (20000) or proposed
     t + t² terms (20017), before the walk was allowed into the noise model."""
     oc = draw_outside("null_coloured", seed)
-    d, r = compare_measurement(oc.case.twin, oc.case.measurement, [])
+    d, r = compare_measurement(oc.case.twin, oc.case.measurement, [], discover=True)
     assert not d.selected, [c.effect for c in d.selected]
-    discover_into(d, r, None)
-    assert not d.discovery.proposed, d.discovery.equation()
-    assert "no missing effect" in d.finding.lower()
+    assert not r.discovery.proposed, r.discovery.equation
+    assert "no missing effect" in r.finding.lower()

@@ -6,7 +6,7 @@ import pytest
 
 from conftest import SCENARIOS, assert_one_clear_line, coarse_text, run_cli
 from twin.errors import ScenarioError
-from twin.model.scenario import json_schema, load_scenario, parse_scenario
+from twin.model.scenario import load_scenario, parse_scenario, scenario_json_schema
 from twin.model.simulate import simulate
 
 GOOD = """\
@@ -81,7 +81,7 @@ def test_every_scenario_loads_and_runs_on_a_coarse_grid(path):
 
 
 def test_json_schema_describes_the_sections(tmp_path):
-    s = json_schema()
+    s = scenario_json_schema()
     assert set(s["properties"]) >= {"seed", "program", "chamber", "device", "test_plan", "twin", "output"}
     assert s["required"] == ["program"]
     r = run_cli("schema", "--json", str(tmp_path / "schema.json"))
@@ -94,7 +94,7 @@ def test_jsonschema_validates_the_shipped_scenarios():
     import yaml
 
     for path in SCENARIOS:
-        jsonschema.validate(yaml.safe_load(path.read_text()), json_schema())
+        jsonschema.validate(yaml.safe_load(path.read_text()), scenario_json_schema())
 
 
 def _field_paths(model, prefix=""):

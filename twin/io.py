@@ -9,7 +9,13 @@ from pathlib import Path
 
 
 def umask_mode() -> int:
-    """0o666 less the process umask: what ``open()`` would have given a new file."""
+    """0o666 less the process umask: what ``open()`` would have given a new file.
+
+    Returns
+    -------
+    int
+        Permission bits.
+    """
     mask = os.umask(0)
     os.umask(mask)
     return 0o666 & ~mask
@@ -17,7 +23,18 @@ def umask_mode() -> int:
 
 def not_a_regular_file(path: Path) -> str | None:
     """What ``path`` is when it exists and is not a regular file a writer may replace (a device,
-    a FIFO, a socket, a folder), else None. Renaming over /dev/null as root would replace it."""
+    a FIFO, a socket, a folder), else None. Renaming over /dev/null as root would replace it.
+
+    Parameters
+    ----------
+    path : Path
+        The path a writer would replace.
+
+    Returns
+    -------
+    str or None
+        E.g. ``"a directory"``; None for a regular file or a new path.
+    """
     import stat
 
     try:
@@ -35,7 +52,20 @@ def not_a_regular_file(path: Path) -> str | None:
 def atomic_path(path: Path, suffix: str = ".tmp"):
     """Yield a temporary path beside ``path``; on success it is renamed over ``path`` (with the
     permissions ``open()`` would give), on any error or interrupt it is removed. A ``path`` that
-    exists and is not a regular file is refused (``IsADirectoryError``/``OSError``), never replaced."""
+    exists and is not a regular file is refused (``IsADirectoryError``/``OSError``), never replaced.
+
+    Parameters
+    ----------
+    path : Path
+        Final path.
+    suffix : str
+        Suffix of the temporary file.
+
+    Yields
+    ------
+    Path
+        The temporary path to write.
+    """
     path = Path(path)
     kind = not_a_regular_file(path)
     if kind is not None:
@@ -54,7 +84,20 @@ def atomic_path(path: Path, suffix: str = ".tmp"):
 
 def atomic_write_bytes(path: Path, data: bytes) -> Path:
     """Write ``data`` to a temporary file beside ``path``, then rename it into place; a failure
-    (full disk, file-size limit, read-only folder) raises ``OSError`` and leaves no file behind."""
+    (full disk, file-size limit, read-only folder) raises ``OSError`` and leaves no file behind.
+
+    Parameters
+    ----------
+    path : Path
+        Final path.
+    data : bytes
+        Contents.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as f:
             f.write(data)
@@ -67,6 +110,16 @@ def atomic_hdf5(path: Path):
 
     The HDF5 C library never writes to disk here, so a full disk or a file-size limit is an
     ``OSError`` of Python's own write (one line), not a crash inside the library.
+
+    Parameters
+    ----------
+    path : Path
+        Final path.
+
+    Yields
+    ------
+    h5py.File
+        The in-memory file to fill.
     """
     import h5py
 
@@ -79,7 +132,20 @@ def atomic_hdf5(path: Path):
 
 
 def remove_stale_temporaries(folder: Path, names) -> list[Path]:
-    """Remove the temporary files (``.NAME.*.tmp``) that a killed writer of ``names`` left in ``folder``."""
+    """Remove the temporary files (``.NAME.*.tmp``) that a killed writer of ``names`` left in ``folder``.
+
+    Parameters
+    ----------
+    folder : Path
+        Where the files were written.
+    names : iterable of str
+        Final file names.
+
+    Returns
+    -------
+    list of Path
+        The files removed.
+    """
     removed = []
     folder = Path(folder)
     if folder.is_dir():
@@ -91,7 +157,20 @@ def remove_stale_temporaries(folder: Path, names) -> list[Path]:
 
 
 def atomic_write_text(path: Path, text: str) -> Path:
-    """Write ``text`` to a temporary file beside ``path``, then rename it into place."""
+    """Write ``text`` to a temporary file beside ``path``, then rename it into place.
+
+    Parameters
+    ----------
+    path : Path
+        Final path.
+    text : str
+        Contents, written as UTF-8.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return Path(path)
@@ -99,7 +178,22 @@ def atomic_write_text(path: Path, text: str) -> Path:
 
 def read_text(path: str | Path, what: str, error: type[Exception]) -> str:
     """The UTF-8 text of ``path``; a missing, unreadable or non-UTF-8 file raises ``error`` in one
-    line naming the file and ``what`` it should be (e.g. "scenario file")."""
+    line naming the file and ``what`` it should be (e.g. "scenario file").
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str
+        What it should be, for messages.
+    error : type of Exception
+        The exception raised.
+
+    Returns
+    -------
+    str
+        The text.
+    """
     p = Path(path)
     if not p.is_file():
         raise error(f"{p}: {what} not found" if not p.is_dir() else f"{p}: is a directory; expected a {what}")
@@ -117,7 +211,22 @@ class RepeatedKeyError(ValueError):
 
 def read_json(path: str | Path, what: str, error: type[Exception]):
     """The JSON value in ``path``; malformed JSON, nesting too deep for the parser, or an integer
-    beyond Python's 4300-digit limit raise ``error`` in one line naming the file."""
+    beyond Python's 4300-digit limit raise ``error`` in one line naming the file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str
+        What it should be, for messages.
+    error : type of Exception
+        The exception raised (also for a key repeated in one object).
+
+    Returns
+    -------
+    object
+        The parsed value.
+    """
     import json
 
     text = read_text(path, what, error)
@@ -145,7 +254,18 @@ def read_json(path: str | Path, what: str, error: type[Exception]):
 def strict_json(value):
     """``value`` as plain JSON data: NumPy scalars and arrays as Python numbers and lists, tuples as
     lists, and every NaN or infinity as ``None`` (JSON has no NaN; a reader that meets a bare
-    ``NaN`` token fails, and strict parsers are the norm outside Python)."""
+    ``NaN`` token fails, and strict parsers are the norm outside Python).
+
+    Parameters
+    ----------
+    value : object
+        Nested dicts, lists, tuples, NumPy values and plain values.
+
+    Returns
+    -------
+    object
+        The same structure as plain JSON data.
+    """
     import math
 
     import numpy as np

@@ -21,6 +21,20 @@ def import_plugin(spec: str, base_dir: str | Path = ".", error: type[TwinError] 
 
     A file is imported once per resolved path; a failure while it loads is reported as ``error``
     with the exception's type and message, in one line, and leaves nothing in ``sys.modules``.
+
+    Parameters
+    ----------
+    spec : str
+        A ``.py`` path or a module name.
+    base_dir : str or Path
+        Directory a relative path is resolved against.
+    error : type of TwinError
+        The exception raised on failure.
+
+    Returns
+    -------
+    ModuleType
+        The imported module.
     """
     path = Path(spec) if Path(spec).is_absolute() else Path(base_dir) / spec
     if not spec.endswith(".py") and ("/" in spec or path.exists()):  # a path, but not to a .py file
@@ -60,6 +74,13 @@ class Registry(dict):
     Registering a name twice is allowed only from the same function (a module imported again);
     an unknown name gets "did you mean"; :meth:`load_plugin` imports a user's module and returns
     what it registered.
+
+    Parameters
+    ----------
+    kind : str
+        What an entry is, for messages (e.g. ``"compensator"``).
+    error : type of TwinError
+        The exception raised.
     """
 
     def __init__(self, kind: str, error: type[TwinError]):
@@ -68,7 +89,17 @@ class Registry(dict):
         self._origins: dict[str, tuple[str, str]] = {}
 
     def add(self, name: str, entry, origin) -> None:
-        """Register ``entry`` under ``name``; ``origin`` is the function that defines it."""
+        """Register ``entry`` under ``name``; ``origin`` is the function that defines it.
+
+        Parameters
+        ----------
+        name : str
+            Registered name.
+        entry : object
+            What is registered.
+        origin : callable
+            The function (or class) defining it.
+        """
         where = (origin.__module__, origin.__qualname__)
         if name in self and self._origins[name] != where:
             raise self.error(f"a {self.kind} named {name!r} is already registered (by {self._origins[name][0]})")
@@ -76,7 +107,18 @@ class Registry(dict):
         self._origins[name] = where
 
     def lookup(self, name: str):
-        """The entry ``name``; unknown names get "did you mean"."""
+        """The entry ``name``; unknown names get "did you mean".
+
+        Parameters
+        ----------
+        name : str
+            Registered name.
+
+        Returns
+        -------
+        object
+            The entry.
+        """
         from twin.text import did_you_mean
 
         try:
@@ -86,11 +128,38 @@ class Registry(dict):
 
     def load_plugin(self, spec: str, base_dir: str | Path = ".") -> list[str]:
         """Import a module (a ``.py`` path relative to ``base_dir``, or a module name); the names it
-        registered. Runs the user's code."""
+        registered. Runs the user's code.
+
+        Parameters
+        ----------
+        spec : str
+            A ``.py`` path or a module name.
+        base_dir : str or Path
+            Directory a relative path is resolved against.
+
+        Returns
+        -------
+        list of str
+            Names registered by the module, in registration order.
+        """
         before = set(self)
         import_plugin(spec, base_dir, error=self.error)
         return [n for n in self if n not in before]
 
     def pop(self, name, *default):
+        """Remove ``name`` (and its origin) as :meth:`dict.pop` does.
+
+        Parameters
+        ----------
+        name : str
+            Registered name.
+        *default : object
+            Returned when ``name`` is absent (else KeyError).
+
+        Returns
+        -------
+        object
+            The entry removed, or the default.
+        """
         self._origins.pop(name, None)
         return super().pop(name, *default)

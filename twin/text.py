@@ -19,6 +19,22 @@ def did_you_mean(name: object, options: Iterable, *, label: str | None = "valid"
 
     Without a close option: ``"; <label>: a, b, c"`` (the options, sorted unless ``sort=False``),
     or ``""`` when ``label`` is None.
+
+    Parameters
+    ----------
+    name : object
+        What the user typed.
+    options : iterable
+        Valid values.
+    label : str or None
+        Heading of the option list.
+    sort : bool
+        Sort the option list.
+
+    Returns
+    -------
+    str
+        The hint, starting with ``"; "``, or ``""``.
     """
     options = [str(o) for o in options]
     close = difflib.get_close_matches(str(name), options, n=1)
@@ -39,7 +55,20 @@ def _compose(text: str) -> yaml.Node | None:
 
 def line_map(text: str, root: yaml.Node | None = None) -> dict[tuple, int]:
     """Key path → 1-based YAML line, from the composed node tree (list items by index); ``root``:
-    the tree already composed from ``text``."""
+    the tree already composed from ``text``.
+
+    Parameters
+    ----------
+    text : str
+        YAML text.
+    root : yaml.Node, optional
+        Its composed tree.
+
+    Returns
+    -------
+    dict of tuple to int
+        Line of each key path.
+    """
     lines: dict[tuple, int] = {}
 
     def walk(node: yaml.Node, path: tuple) -> None:
@@ -72,7 +101,18 @@ def _scalar(key: yaml.Node):
 
 
 def format_path(loc: tuple) -> str:
-    """``('program', 'steps', 1, 'dwell_s')`` → ``program.steps[1].dwell_s``."""
+    """``('program', 'steps', 1, 'dwell_s')`` → ``program.steps[1].dwell_s``.
+
+    Parameters
+    ----------
+    loc : tuple
+        Key path (str keys, int list indices).
+
+    Returns
+    -------
+    str
+        Dotted path, ``(top level)`` for an empty one.
+    """
     out = ""
     for part in loc:
         out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
@@ -80,7 +120,22 @@ def format_path(loc: tuple) -> str:
 
 
 def where(path: str, lines: dict[tuple, int], loc: tuple) -> str:
-    """``file:line`` of the deepest part of ``loc`` the YAML has (``file`` alone if none)."""
+    """``file:line`` of the deepest part of ``loc`` the YAML has (``file`` alone if none).
+
+    Parameters
+    ----------
+    path : str
+        The file.
+    lines : dict of tuple to int
+        :func:`line_map` of it.
+    loc : tuple
+        Key path.
+
+    Returns
+    -------
+    str
+        ``file:line`` or ``file``.
+    """
     for n in range(len(loc), -1, -1):
         if loc[:n] in lines:
             return f"{path}:{lines[loc[:n]]}"
@@ -95,7 +150,15 @@ MAX_YAML_NODES = 200_000  # after alias expansion
 
 def check_yaml_limits(text: str, path: str) -> None:
     """Refuse YAML nested deeper than :data:`MAX_YAML_DEPTH`, larger than :data:`MAX_YAML_NODES`
-    once aliases are expanded, or with an alias to a collection still open (a self-reference)."""
+    once aliases are expanded, or with an alias to a collection still open (a self-reference).
+
+    Parameters
+    ----------
+    text : str
+        YAML text.
+    path : str
+        The file, for messages.
+    """
     sizes: dict[str, int] = {}
     stack: list[list] = [[None, 0]]  # per open collection: its anchor, its expanded node count
     try:
@@ -132,7 +195,15 @@ def check_yaml_limits(text: str, path: str) -> None:
 
 def check_duplicate_keys(root: yaml.Node | None, path: str) -> None:
     """Refuse a mapping of the tree ``root`` that holds the same key twice: YAML loaders keep the
-    last one in silence, so a repeated unit id or parameter would drop the first without a word."""
+    last one in silence, so a repeated unit id or parameter would drop the first without a word.
+
+    Parameters
+    ----------
+    root : yaml.Node or None
+        Composed tree.
+    path : str
+        The file, for messages.
+    """
     seen, todo = set(), [root] if root is not None else []
     while todo:
         node = todo.pop()
@@ -156,7 +227,26 @@ def check_duplicate_keys(root: yaml.Node | None, path: str) -> None:
 def load_yaml_mapping(text: str, path: str, what: str) -> tuple[dict, dict[tuple, int]]:
     """Parse YAML that must be a mapping; return it with its key-path → line map.
 
-    Raises :class:`ScenarioError` with ``path:line: malformed YAML: ...`` or ``path: <what>, got list``.
+    Parameters
+    ----------
+    text : str
+        YAML text.
+    path : str
+        The file, for messages.
+    what : str
+        What the document should be, for the message when it is not a mapping.
+
+    Returns
+    -------
+    data : dict
+        The mapping.
+    lines : dict of tuple to int
+        Line of each key path.
+
+    Raises
+    ------
+    ScenarioError
+        ``path:line: malformed YAML: ...`` or ``path: <what>, got list``.
     """
     check_yaml_limits(text, path)
     root = _compose(text)

@@ -25,7 +25,17 @@ from sim.microstructure import EPSILON_0_F_PER_M, CombGeometry, deformed, displa
 
 @dataclass(frozen=True)
 class AnchorLayout:
-    """Anchor positions on the die [µm]; the default is centred and symmetric (docs/fem.md §D1)."""
+    """Anchor positions on the die [µm]; the default is centred and symmetric (docs/fem.md §D1).
+
+    Attributes
+    ----------
+    cell_x_um : float
+        Cell centre relative to the die centre [µm].
+    spring_half_span_um, electrode_half_span_um : float
+        Half distance between the two spring anchors and between the two electrode anchors [µm].
+    electrode_shift_um : float
+        Extra shift of the right electrode anchor [µm].
+    """
 
     cell_x_um: float = 0.0
     spring_half_span_um: float = 400.0
@@ -33,6 +43,13 @@ class AnchorLayout:
     electrode_shift_um: float = 0.0
 
     def positions_um(self) -> dict[str, float]:
+        """Anchor positions relative to the die centre.
+
+        Returns
+        -------
+        dict of str to float
+            ``spring_left``, ``spring_right``, ``electrode_left``, ``electrode_right`` [µm].
+        """
         c = self.cell_x_um
         return {"spring_left": c - self.spring_half_span_um, "spring_right": c + self.spring_half_span_um,
                 "electrode_left": c - self.electrode_half_span_um,
@@ -41,8 +58,15 @@ class AnchorLayout:
 
 @dataclass(frozen=True)
 class AnchorMotion:
-    """Per unit thermal strain of each material: ũ of the mass (spring mean) and of each electrode [m],
-    arrays (n_materials,); ``x_um`` the anchor positions relative to the die centre."""
+    """Per unit thermal strain of each material: ũ of the mass (spring mean) and of each electrode [m].
+
+    Attributes
+    ----------
+    mass_m, right_m, left_m : ndarray
+        ũ of the mass and of the right and left electrodes per unit θ, (n_materials,) [m].
+    x_um : dict of str to float
+        Anchor positions relative to the die centre [µm].
+    """
 
     mass_m: np.ndarray
     right_m: np.ndarray
@@ -51,8 +75,22 @@ class AnchorMotion:
 
 
 def anchor_motion(sol: StackSolution, layout: AnchorLayout) -> AnchorMotion:
-    """Unit-load anchor displacements minus silicon's free dilation (x_A in the die frame: a
-    uniform shift of every ũ cancels in the gaps)."""
+    """Unit-load anchor displacements minus silicon's free dilation, ũ_A = u_A − ε_Si·x_A.
+
+    x_A is taken in the die frame: a uniform shift of every ũ cancels in the gaps (docs/fem.md §D1).
+
+    Parameters
+    ----------
+    sol : StackSolution
+        Solved package.
+    layout : AnchorLayout
+        Anchor positions [µm]; all must lie on the die.
+
+    Returns
+    -------
+    AnchorMotion
+        ũ per unit thermal strain of each material [m].
+    """
     pos = layout.positions_um()
     centre = 0.5 * (sol.die_x_m[0] + sol.die_x_m[1])
     x_m = np.array([centre + pos[k] * UM for k in pos])
@@ -68,7 +106,15 @@ def anchor_motion(sol: StackSolution, layout: AnchorLayout) -> AnchorMotion:
 
 @dataclass(frozen=True)
 class CombDrift:
-    """Offset [g] and relative scale-factor change [1] at each temperature."""
+    """Offset [g] and relative scale-factor change [1] at each temperature.
+
+    Attributes
+    ----------
+    offset_g : ndarray
+        Offset [g].
+    scale_factor : ndarray
+        Relative scale-factor change [1].
+    """
 
     offset_g: np.ndarray
     scale_factor: np.ndarray
@@ -86,6 +132,29 @@ def comb_drift(geometry: CombGeometry, temperature_c, mass_m=0.0, right_m=0.0, l
     """Offset and scale factor of the comb with anchor motions ũ [m] (zero at ``reference_c``).
 
     With ũ = 0 this is :func:`sim.microstructure.drift_g` under reading H or HE.
+
+    Parameters
+    ----------
+    geometry : CombGeometry
+        Comb dimensions [µm] and resonance [Hz].
+    temperature_c : float or ndarray
+        Temperature [°C].
+    mass_m, right_m, left_m : float or ndarray
+        ũ of the mass and of the right and left electrodes [m].
+    reading : {"H", "HE"}
+        Thermal reading of the comb.
+    reference_c : float
+        Calibration temperature [°C].
+
+    Returns
+    -------
+    CombDrift
+        Offset [g] and scale-factor change [1].
+
+    References
+    ----------
+    Gaps of docs/fem.md §D1; capacitances of Qi et al. (2022), Micromachines 13, 2156, eqs. (16)–(19)
+    via :mod:`sim.microstructure`.
     """
     if reading not in ("H", "HE"):
         raise ValueError(f"a comb on a substrate dilates with it: reading must be H or HE, got {reading!r}")
@@ -99,7 +168,25 @@ def comb_drift(geometry: CombGeometry, temperature_c, mass_m=0.0, right_m=0.0, l
 
 @dataclass(frozen=True)
 class PackageDrift:
-    """Drift of the comb on the packaged die versus temperature, and its split by material."""
+    """Drift of the comb on the packaged die versus temperature, and its split by material.
+
+    Attributes
+    ----------
+    temperature_c : ndarray
+        Temperature [°C].
+    offset_mg : ndarray
+        Offset [mg].
+    scale_factor_ppm : ndarray
+        Package-induced scale-factor change [ppm] (total minus the free comb's).
+    offset_by_material_mg : dict of str to ndarray
+        Offset from each material's thermal strain alone [mg].
+    delta_pm : ndarray
+        Input-equivalent displacement x̃_m − ½(ũ_R + ũ_L) [pm].
+    motion_pm : dict of str to ndarray
+        ũ of the mass and of each electrode [pm].
+    gap_change_pm : dict of str to ndarray
+        Right and left sensing-gap change beyond the comb's own dilation [pm].
+    """
 
     temperature_c: np.ndarray
     offset_mg: np.ndarray
@@ -112,7 +199,28 @@ class PackageDrift:
 
 def package_drift(sol: StackSolution, layout: AnchorLayout, geometry: CombGeometry, temperature_c,
                   reading: str = "H", reference_c: float = 25.0) -> PackageDrift:
-    """Offset [mg] and package-induced scale-factor change [ppm] (both zero at ``reference_c``)."""
+    """Offset [mg] and package-induced scale-factor change [ppm] (both zero at ``reference_c``).
+
+    Parameters
+    ----------
+    sol : StackSolution
+        Solved package.
+    layout : AnchorLayout
+        Anchor positions [µm].
+    geometry : CombGeometry
+        Comb dimensions [µm] and resonance [Hz].
+    temperature_c : float or ndarray
+        Temperature [°C].
+    reading : {"H", "HE"}
+        Thermal reading of the comb.
+    reference_c : float
+        Trim temperature, where the anchors are placed [°C].
+
+    Returns
+    -------
+    PackageDrift
+        Offset [mg], scale factor [ppm] and their breakdown.
+    """
     t = np.atleast_1d(np.asarray(temperature_c, float))
     am = anchor_motion(sol, layout)
     theta = sol.thermal_strains(t, reference_c)  # from the trim temperature: anchors placed there
@@ -131,7 +239,22 @@ def package_drift(sol: StackSolution, layout: AnchorLayout, geometry: CombGeomet
 
 
 def slope_per_c(temperature_c: np.ndarray, values: np.ndarray, low_c: float = -40.0, high_c: float = 85.0) -> float:
-    """Least-squares slope of ``values`` over [low_c, high_c] (the datasheet's TCOff/TCSo range)."""
+    """Least-squares slope of ``values`` over [low_c, high_c] (the datasheet's TCOff/TCSo range).
+
+    Parameters
+    ----------
+    temperature_c : ndarray
+        Temperature [°C].
+    values : ndarray
+        Drift [any unit, e.g. mg or ppm].
+    low_c, high_c : float
+        Fitted range [°C].
+
+    Returns
+    -------
+    float
+        Slope [unit of ``values`` per °C].
+    """
     t = np.asarray(temperature_c, float)
     keep = (t >= low_c) & (t <= high_c)
     return float(np.polyfit(t[keep], np.asarray(values)[keep], 1)[0])

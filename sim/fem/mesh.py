@@ -19,8 +19,14 @@ VOID = -1
 class LayeredMesh:
     """A quadrilateral mesh with one material index per element.
 
-    ``mesh`` is a :class:`skfem.MeshQuad` (use it with ``ElementQuad2`` for quadratic fields),
-    ``material`` the index of each element's material, ``x_nodes_m``/``y_nodes_m`` the grid lines.
+    Attributes
+    ----------
+    mesh : skfem.MeshQuad
+        The mesh [m] (use it with ``ElementQuad2`` for quadratic fields).
+    material : ndarray of int
+        Material index of each element.
+    x_nodes_m, y_nodes_m : ndarray
+        Grid lines [m].
     """
 
     mesh: object
@@ -32,7 +38,21 @@ class LayeredMesh:
 def subdivide(breaks_m: np.ndarray, max_size_m: np.ndarray | float, min_divisions: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Grid lines splitting each interval of ``breaks_m`` into equal parts ≤ its ``max_size_m``.
 
-    Returns the lines and, for each new interval, the index of the original interval it lies in.
+    Parameters
+    ----------
+    breaks_m : ndarray
+        Increasing break points [m].
+    max_size_m : float or ndarray
+        Largest part [m], scalar or one per interval.
+    min_divisions : int
+        Fewest parts per interval.
+
+    Returns
+    -------
+    lines : ndarray
+        Grid lines [m].
+    owner : ndarray of int
+        For each new interval, the index of the original interval it lies in.
     """
     breaks = np.asarray(breaks_m, float)
     sizes = np.broadcast_to(np.asarray(max_size_m, float), (breaks.size - 1,))
@@ -51,9 +71,19 @@ def layered_mesh(x_breaks_m, y_breaks_m, cell_material, max_dx_m, max_dy_m, min_
 
     Parameters
     ----------
-    x_breaks_m, y_breaks_m : increasing grid lines of the rectangles [m].
-    cell_material : int array (len(y_breaks)-1, len(x_breaks)-1), row = y interval; ``VOID`` = empty.
-    max_dx_m, max_dy_m : largest element size per x / y interval (scalar or one per interval).
+    x_breaks_m, y_breaks_m : array_like
+        Increasing grid lines of the rectangles [m].
+    cell_material : int array (len(y_breaks)-1, len(x_breaks)-1)
+        Material index per rectangle, row = y interval; ``VOID`` = empty.
+    max_dx_m, max_dy_m : float or array_like
+        Largest element size per x / y interval [m] (scalar or one per interval).
+    min_divisions : int
+        Fewest elements per interval and direction.
+
+    Returns
+    -------
+    LayeredMesh
+        Mesh [m] with one material index per element.
     """
     from skfem import MeshQuad
 

@@ -39,6 +39,35 @@ class PackageDesign:
 
     ``layout``: ``"board"`` (full stack), ``"package"`` (no board, no solder: board decoupled)
     or ``"bare_die"`` (the silicon die alone: homogeneous, the analytic-comb limit).
+
+    Attributes
+    ----------
+    die_width_um, die_thickness_um : float
+        Die (die + cap) size [µm].
+    die_offset_um : float
+        Die centre relative to the package centre (placement error) [µm].
+    attach_thickness_um : float
+        Die-attach bond line [µm].
+    attach_modulus_gpa : float
+        Die-attach Young's modulus [GPa].
+    mould_cte_ppm_per_k : float
+        Mould CTE α1 [ppm/K].
+    package_width_um, package_height_um : float
+        Package size [µm].
+    pad_width_um, lead_length_um, leadframe_thickness_um : float
+        Exposed pad, leads and leadframe [µm].
+    solder_thickness_um : float
+        Solder joints [µm].
+    board_width_um, board_thickness_um : float
+        FR-4 board [µm].
+    stress_free_c : float
+        Stress-free (cure) temperature [°C].
+    layout : {"board", "package", "bare_die"}
+        What is modelled (above).
+    kinematics : {"gps", "plane_strain", "plane_stress"}
+        Out-of-plane assumption (:mod:`sim.fem.elasticity`).
+    element_um : float
+        Largest element edge in x [µm] (die region: half of it).
     """
 
     die_width_um: float = 2000.0
@@ -77,7 +106,13 @@ class PackageDesign:
                              f"{self.package_height_um:g} µm")
 
     def materials(self) -> list[md.PackageMaterial]:
-        """Material list; the index in this list is the element's material index."""
+        """Material list; the index in this list is the element's material index.
+
+        Returns
+        -------
+        list of PackageMaterial
+            Silicon, FR-4, SAC305, Cu C194, attach, mould (E [GPa], α [ppm/K]).
+        """
         return [md.silicon(), md.fr4(), md.sac305(), md.copper_c194(), md.epoxy_attach(self.attach_modulus_gpa),
                 md.mould_compound(self.mould_cte_ppm_per_k)]
 
@@ -119,7 +154,27 @@ def _section(d: PackageDesign):
 
 @dataclass
 class StackSolution:
-    """Unit-load solutions of one design: ``U[:, k]`` is the response to θ = 1 in material k."""
+    """Unit-load solutions of one design: ``U[:, k]`` is the response to θ = 1 in material k.
+
+    Attributes
+    ----------
+    design : PackageDesign
+        The design solved.
+    system : ThermoelasticSystem
+        Assembled stiffness and loads.
+    U : ndarray
+        Unit-load solutions (n_dofs, n_materials) [m per unit strain].
+    materials : list of PackageMaterial
+        Materials in column order of ``U``.
+    material_index : ndarray of int
+        Material of each element.
+    die_top_y_m : float
+        Height of the die's top surface [m].
+    die_x_m : tuple of 2 float
+        Left and right die edges [m].
+    probes : dict
+        Free-form extra data (empty by default; not used by this module).
+    """
 
     design: PackageDesign
     system: ThermoelasticSystem
@@ -132,14 +187,29 @@ class StackSolution:
 
     @property
     def n_dofs(self) -> int:
+        """Number of unknowns of the system."""
         return self.system.n_dofs
 
     @property
     def n_elements(self) -> int:
+        """Number of elements of the mesh."""
         return int(self.material_index.size)
 
     def surface_unit_displacements(self, x_m: np.ndarray, y_m: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(u_x, u_y) per unit load at points (x_m, die top): arrays (n_materials, len(x_m)) [m]."""
+        """(u_x, u_y) per unit load at points (x_m, die top): arrays (n_materials, len(x_m)) [m].
+
+        Parameters
+        ----------
+        x_m : float or ndarray
+            Abscissae [m].
+        y_m : float, optional
+            Height [m]; default the die top.
+
+        Returns
+        -------
+        ux, uy : ndarray
+            Displacements per unit thermal strain of each material [m].
+        """
         x = np.atleast_1d(np.asarray(x_m, float))
         y = self.die_top_y_m if y_m is None else y_m
         P = self.system.basis.probes(np.vstack([x, np.full_like(x, y)]))
@@ -147,18 +217,63 @@ class StackSolution:
         return vals[:, : x.size], vals[:, x.size:]
 
     def thermal_strains(self, temperature_c, reference_c: float | None = None) -> np.ndarray:
-        """θ_k(T) from ``reference_c`` (default: stress-free): array (len(T), n_materials)."""
+        """θ_k(T) from ``reference_c`` (default: stress-free): array (len(T), n_materials).
+
+        Parameters
+        ----------
+        temperature_c : float or ndarray
+            Temperature [°C].
+        reference_c : float, optional
+            Reference temperature [°C]; default ``design.stress_free_c``.
+
+        Returns
+        -------
+        ndarray
+            Free thermal strain of each material [1] (:func:`sim.fem.materials_data.free_strain`).
+        """
         ref = self.design.stress_free_c if reference_c is None else reference_c
         t = np.atleast_1d(np.asarray(temperature_c, float))
         return np.column_stack([md.free_strain(m, t, ref) for m in self.materials])
 
     def displacement(self, temperature_c: float, reference_c: float | None = None) -> np.ndarray:
-        """Full dof vector at one temperature (from the stress-free state unless ``reference_c``)."""
+        """Full dof vector at one temperature (from the stress-free state unless ``reference_c``).
+
+        Exact superposition u(T) = Σ_k θ_k(T) U_k (docs/fem.md §D2 item 4).
+
+        Parameters
+        ----------
+        temperature_c : float
+            Temperature [°C].
+        reference_c : float, optional
+            Reference temperature [°C].
+
+        Returns
+        -------
+        ndarray
+            Displacements [m] (ε0 [1] under ``gps``).
+        """
         return self.U @ self.thermal_strains(temperature_c, reference_c)[0]
 
 
 def build_system(design: PackageDesign):
-    """Mesh and assemble the design: (system, material index per element, die-top height, supports)."""
+    """Mesh and assemble the design.
+
+    Parameters
+    ----------
+    design : PackageDesign
+        The cross-section [µm].
+
+    Returns
+    -------
+    system : ThermoelasticSystem
+        Stiffness and unit loads.
+    material : ndarray of int
+        Material index per element.
+    die_top : float
+        Height of the die top [m].
+    fixed : ndarray of int
+        Dofs of the statically determinate supports.
+    """
     xb, yb, cells, dx, dy, die_top = _section(design)
     lm = layered_mesh(xb, yb, cells, dx, dy, min_divisions=2)
     mats = design.materials()
@@ -170,7 +285,18 @@ def build_system(design: PackageDesign):
 
 @lru_cache(maxsize=64)
 def solve_stack(design: PackageDesign) -> StackSolution:
-    """Assemble, factorise once and solve every unit load of ``design`` (cached per design)."""
+    """Assemble, factorise once and solve every unit load of ``design`` (cached per design).
+
+    Parameters
+    ----------
+    design : PackageDesign
+        The cross-section [µm].
+
+    Returns
+    -------
+    StackSolution
+        Unit-load solutions [m].
+    """
     system, material, die_top, fixed = build_system(design)
     U = Factorized(system.K, fixed).solve(system.F)
     c, h = design.die_offset_um * UM, design.die_width_um / 2 * UM
@@ -179,7 +305,23 @@ def solve_stack(design: PackageDesign) -> StackSolution:
 
 @dataclass(frozen=True)
 class DieSurface:
-    """The die's top surface at each temperature (rows): displacement, strain, curvature, bow."""
+    """The die's top surface at each temperature (rows): displacement, strain, curvature, bow.
+
+    Attributes
+    ----------
+    temperature_c : ndarray
+        Temperatures [°C].
+    x_um : ndarray
+        Points relative to the die centre [µm].
+    ux_m, uy_m : ndarray
+        Displacements [m].
+    strain_xx : ndarray
+        In-plane strain ∂u_x/∂x [1].
+    curvature_per_m : ndarray
+        Curvature [1/m].
+    warpage_um : ndarray
+        Bow, peak-to-valley after removing the best line [µm].
+    """
 
     temperature_c: np.ndarray
     x_um: np.ndarray  # relative to the die centre
@@ -191,8 +333,27 @@ class DieSurface:
 
 
 def die_surface(sol: StackSolution, temperature_c, reference_c: float | None = None, points: int = 201) -> DieSurface:
-    """Die-top displacement, in-plane strain ∂u_x/∂x, curvature (quadratic fit of u_y) and bow
-    (peak-to-valley of u_y after removing the best line) versus temperature."""
+    """Die-top displacement, in-plane strain, curvature and bow versus temperature.
+
+    Strain ∂u_x/∂x, curvature from a quadratic fit of u_y, bow as the peak-to-valley of u_y after
+    removing the best line.
+
+    Parameters
+    ----------
+    sol : StackSolution
+        Solved package.
+    temperature_c : float or ndarray
+        Temperature [°C].
+    reference_c : float, optional
+        Reference temperature [°C]; default the stress-free one.
+    points : int
+        Sample points across the die.
+
+    Returns
+    -------
+    DieSurface
+        Displacement [m], strain [1], curvature [1/m], bow [µm].
+    """
     a, b = sol.die_x_m
     x = np.linspace(a, b, points)
     ux1, uy1 = sol.surface_unit_displacements(x)
@@ -207,5 +368,16 @@ def die_surface(sol: StackSolution, temperature_c, reference_c: float | None = N
 
 
 def mirrored(design: PackageDesign) -> PackageDesign:
-    """The same design mirrored about the package centre (x → −x)."""
+    """The same design mirrored about the package centre (x → −x).
+
+    Parameters
+    ----------
+    design : PackageDesign
+        The design.
+
+    Returns
+    -------
+    PackageDesign
+        With ``die_offset_um`` negated.
+    """
     return replace(design, die_offset_um=-design.die_offset_um)

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from twin.arrays import interleaved_folds, run_slices, temperature_rate_c_per_s
 from twin.calibration.lag import ThermalLog, as_log, lagged_c, make_X
 from twin.errors import TwinError
 
@@ -116,7 +117,7 @@ def split_branches(time_s, temperature_c, min_span_c: float = 5.0, smooth_s: flo
             else:
                 edges.append(lo + int(np.argmin(local)))
         bounds = np.array([0, *edges, s.size], dtype=int)
-        rate = np.gradient(s, t) * 60.0
+        rate = temperature_rate_c_per_s(t, s) * 60.0  # °C/min of the zero-phase smoothed temperature
         for a, b in zip(bounds[:-1], bounds[1:]):
             out += _with_dwells(seg.start, a, b, t, raw[seg], rate, dwell_rate_c_per_min, min_dwell_s,
                                 min_span_c, int(log.run[seg.start]))
@@ -304,8 +305,9 @@ def protocol_heating_vs_cooling(time_s, temperature_c, run=None, reverse: bool =
         np.arange(T.size)
     if pool.size < 4 * n_blocks:
         raise TwinError(f"{pool.size} samples are too few for {2 * n_blocks} interleaved blocks")
-    blocks = np.array_split(pool, 2 * n_blocks)
-    train = np.concatenate(blocks[0::2])
+    half = interleaved_folds(np.arange(pool.size), 2, n_blocks)  # every other block held out
+    train = pool[half == 0]
+    blocks = [pool[b] for b in run_slices(half)]  # the halves alternate: each stretch of one is a block
     first = ("only one thermal direction in the log" if not (idx["heating"].size and idx["cooling"].size) else
              f"no thermal direction spans {min_train_span_c:g} °C alone (heating {span['heating']:.1f} °C, cooling "
              f"{span['cooling']:.1f} °C)")

@@ -18,11 +18,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import minimize_scalar
+from sklearn.utils.validation import check_is_fitted
 
-from twin.calibration.lag import ThermalLog, as_log, make_X, train_mask
+from twin.calibration.lag import ThermalLog, as_log, fit_inputs, make_X, validated_log
 from twin.calibration.models import AXES, CompensatorBase, poly_columns, to_mg_per_c
-from twin.diagnosis.linalg import fit_bounded_linear
-from twin.diagnosis.problem import amplitude_bounds
+from twin.estimation.linalg import fit_bounded_linear
+from twin.estimation.problem import amplitude_bounds
 from twin.effects import Composition, EffectInputs, get_effect
 from twin.errors import TwinError
 
@@ -140,6 +141,8 @@ class ComposedCompensator(CompensatorBase):
 
     Attributes
     ----------
+    n_features_in_ : int
+        Columns of ``X`` seen in ``fit`` (2, or 3 with a run id).
     axes_ : list of dict
         Per axis the fitted static coefficients [mg/°C^k], the effects with their fitted values,
         and the training RMS [mg].
@@ -158,9 +161,7 @@ class ComposedCompensator(CompensatorBase):
 
     def fit(self, X, y, mask=None):
         """Fit each axis on the rows of ``mask``; the effects run over every row of ``X``. Returns self."""
-        log = as_log(X)
-        keep = train_mask(y, log.time_s.size, mask)
-        y = np.asarray(y, float)
+        log, y, keep = fit_inputs(self, X, y, mask)
         self.axes_ = []
         for a, axis in enumerate(AXES):
             try:
@@ -209,16 +210,19 @@ class ComposedCompensator(CompensatorBase):
 
     @property
     def coef_mg_(self) -> np.ndarray:
+        """Static coefficients a_k [mg/°C^k] per axis, (3, degree + 1), read from ``axes_``."""
+        check_is_fitted(self)
         return np.array([e["coef_mg"] for e in self.axes_])
 
     def predict(self, X) -> np.ndarray:
         """Modelled reading [g], (n, 3): level plus the composed drift."""
-        log = as_log(X)
+        log = validated_log(self, X, reset=False)
         drift = composed_drift_g(self.axes_, self.reference_c, log.time_s, log.temperature_c, log.run)
         return drift + self.coef_mg_[:, 0] * 1e-3
 
     def equation(self) -> str:
         """Per axis the static curve and each effect with its fitted values."""
+        check_is_fitted(self)
         lines = []
         for e in self.axes_:
             terms = ", ".join(f"{x['name']}(" + ", ".join(f"{k}={v:.4g}" for k, v in x["values"].items()

@@ -10,10 +10,22 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from sklearn.utils.validation import check_array, check_is_fitted, validate_data
 
 from sim.drift import lowpass, lowpass_at
 from twin.arrays import run_slices
 from twin.errors import TwinError
+
+MIN_ROWS = 4  # the fewest rows of X any calibration estimator takes, in fit or predict
+MIN_TRAIN_ROWS = 10  # the fewest finite rows any calibration fit is attempted on
+
+
+class ThermalLogError(TwinError, ValueError):
+    """``X`` or ``y`` is no thermal log a calibration estimator can take.
+
+    A ``TwinError`` (the command line reports it in one line) and a ``ValueError`` (what
+    scikit-learn expects of an estimator refusing its input).
+    """
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,18 +58,87 @@ def make_X(time_s, temperature_c, run=None) -> np.ndarray:
 
 
 def as_log(X) -> ThermalLog:
-    """Check ``X`` and return it as a :class:`ThermalLog`; raise ``TwinError`` on bad input."""
+    """Check ``X`` and return it as a :class:`ThermalLog`.
+
+    Raises
+    ------
+    ThermalLogError
+        When ``X`` is not (n, 2) or (n, 3) with n ≥ :data:`MIN_ROWS`, holds NaN or inf, or its
+        time does not increase strictly within a run.
+    """
     X = np.asarray(X, float)
-    if X.ndim != 2 or X.shape[1] not in (2, 3) or X.shape[0] < 4:
-        raise TwinError(f"X must be (n, 2) [time_s, temperature_c] or (n, 3) with a run id, n ≥ 4; got {X.shape}")
+    if X.ndim != 2 or X.shape[1] not in (2, 3) or X.shape[0] < MIN_ROWS:
+        # the counts spelled out as n_samples / n_features: scikit-learn's checks look for them
+        shape = f"n_samples = {X.shape[0]}, n_features = {X.shape[1]}" if X.ndim == 2 else f"shape {X.shape}"
+        raise ThermalLogError(f"X must be (n, 2) [time_s, temperature_c] or (n, 3) with a run id, "
+                              f"n ≥ {MIN_ROWS}; got {shape}")
     if not np.all(np.isfinite(X)):
-        raise TwinError("X holds NaN or inf: time and temperature must be finite on every row")
+        raise ThermalLogError("X holds NaN or inf: time and temperature must be finite on every row")
     run = X[:, 2].astype(np.int64) if X.shape[1] == 3 else np.zeros(X.shape[0], np.int64)
     log = ThermalLog(X[:, 0], X[:, 1], run)
     for s in log.segments():
         if np.any(np.diff(log.time_s[s]) <= 0):
-            raise TwinError(f"time_s must increase strictly within a run (run {int(run[s.start])})")
+            raise ThermalLogError(f"time_s must increase strictly within a run (run {int(run[s.start])})")
     return log
+
+
+def validated_log(estimator, X, *, reset: bool) -> ThermalLog:
+    """``X`` checked as scikit-learn checks an estimator's input, then as a thermal log.
+
+    Parameters
+    ----------
+    estimator : BaseEstimator
+        Records ``n_features_in_`` (2 or 3 columns) when ``reset``; otherwise ``X`` must match it
+        and the estimator must be fitted.
+    X : array-like, (n, 2) or (n, 3)
+        ``[time_s, temperature_c]`` [s, °C], or with a run id in the third column.
+    reset : bool
+        True in ``fit``, False in every method that uses a fitted estimator.
+
+    Raises
+    ------
+    ThermalLogError
+        On bad input (its message is scikit-learn's or :func:`as_log`'s).
+    sklearn.exceptions.NotFittedError
+        When ``reset`` is False and the estimator is not fitted.
+    """
+    if not reset:
+        check_is_fitted(estimator)
+    try:
+        # finiteness is left to as_log: one message for NaN and inf in time or temperature
+        X = validate_data(estimator, X, reset=reset, dtype=np.float64, ensure_all_finite=False)
+    except ValueError as exc:
+        raise ThermalLogError(str(exc)) from None
+    return as_log(X)
+
+
+def fit_inputs(estimator, X, y, mask=None) -> tuple[ThermalLog, np.ndarray, np.ndarray]:
+    """What every calibration ``fit`` starts with: the log, ``y`` as floats, the rows to fit on.
+
+    Parameters
+    ----------
+    estimator : BaseEstimator
+        Records ``n_features_in_``.
+    X : array-like, (n, 2) or (n, 3)
+        See :func:`validated_log`.
+    y : array-like, (n, 3)
+        Readings per axis (accelerometer [g] or gyro [rad/s]); rows with NaN are not fitted on.
+    mask : array-like of bool or int, optional
+        Rows to fit on (see :func:`train_mask`).
+
+    Returns
+    -------
+    (log, y, keep) : ThermalLog, (n, 3) float array, (n,) bool array
+    """
+    if y is None:
+        raise ThermalLogError(f"{type(estimator).__name__} requires y to be passed, but the target y is None; "
+                              "expected the readings (n, 3)")
+    log = validated_log(estimator, X, reset=True)
+    try:
+        y = check_array(y, dtype=np.float64, ensure_2d=False, ensure_all_finite=False, input_name="y")
+    except ValueError as exc:
+        raise ThermalLogError(str(exc)) from None
+    return log, y, train_mask(y, log.time_s.size, mask)
 
 
 def _lag_segment(time_s: np.ndarray, temperature_c: np.ndarray, tau_s: float) -> np.ndarray:
@@ -84,13 +165,13 @@ def train_mask(y: np.ndarray, n: int, mask=None) -> np.ndarray:
     """Rows to fit on: ``mask`` (boolean or indices) and finite ``y``; raise if too few."""
     y = np.asarray(y, float)
     if y.shape != (n, 3):
-        raise TwinError(f"accel_g must be (n, 3) with n = {n} rows like X; got {y.shape}")
+        raise ThermalLogError(f"accel_g must be (n, 3) with n = {n} rows like X; got {y.shape}")
     keep = np.all(np.isfinite(y), axis=1)
     if mask is not None:
         m = np.asarray(mask)
         sel = np.zeros(n, bool)
         sel[m if m.dtype != bool else np.flatnonzero(m)] = True
         keep &= sel
-    if keep.sum() < 10:
-        raise TwinError(f"only {int(keep.sum())} rows to fit on (need ≥ 10 with finite accel_g)")
+    if keep.sum() < MIN_TRAIN_ROWS:
+        raise ThermalLogError(f"only {int(keep.sum())} rows to fit on (need ≥ {MIN_TRAIN_ROWS} with finite accel_g)")
     return keep

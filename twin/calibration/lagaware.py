@@ -17,8 +17,9 @@ that would turn a validation into a fit.
 from __future__ import annotations
 
 import numpy as np
+from sklearn.utils.validation import check_is_fitted
 
-from twin.calibration.lag import as_log, lagged_c, train_mask
+from twin.calibration.lag import fit_inputs, lagged_c, validated_log
 from twin.calibration.lagfit import Z95, Profile, covariance, search
 from twin.calibration.models import AXES, CompensatorBase, poly_text, to_mg_per_c
 from twin.errors import TwinError
@@ -48,6 +49,8 @@ class LagAwareCompensator(CompensatorBase):
 
     Attributes
     ----------
+    n_features_in_ : int
+        Columns of ``X`` seen in ``fit`` (2, or 3 with a run id).
     tau_die_s_, tau_rate_s_ : (3,) arrays
         Fitted τ_die, τ_rate per axis [s] (equal across axes when ``shared_``; τ_rate NaN where
         an axis has no rate term).
@@ -60,7 +63,7 @@ class LagAwareCompensator(CompensatorBase):
     rate_ci95_mg_per_c_ : (3, 2) array
     rate_used_ : (3,) bool array
     shared_ : bool
-    selected_ : Candidate
+    selected_ : LagCandidate
         The structure chosen; ``candidates_`` holds every structure tried, with its BIC.
     train_rms_mg_ : (3,) array
     """
@@ -85,9 +88,8 @@ class LagAwareCompensator(CompensatorBase):
         if self.share not in ("auto", "shared", "per_axis") or self.rate_term not in ("auto", True, False):
             raise TwinError(f"share must be auto|shared|per_axis and rate_term auto|True|False; "
                             f"got {self.share!r}, {self.rate_term!r}")
-        log = as_log(X)
-        keep = train_mask(y, log.time_s.size, mask)
-        profile = Profile(log, np.asarray(y, float), keep, self.degree, self.reference_c)
+        log, y, keep = fit_inputs(self, X, y, mask)
+        profile = Profile(log, y, keep, self.degree, self.reference_c)
         step = float(np.median(np.diff(log.time_s)))
         self.selected_, self.candidates_ = search(profile, tuple(self.tau_bounds_s), 2 * step, self.n_grid,
                                                   self.share, self.rate_term)
@@ -121,12 +123,12 @@ class LagAwareCompensator(CompensatorBase):
 
     def die_temperature_c(self, X) -> np.ndarray:
         """``T_die = lag(T, τ_die)`` per axis [°C], (n, 3)."""
-        log = as_log(X)
+        log = validated_log(self, X, reset=False)
         return np.column_stack([lagged_c(log, t) for t in self.tau_die_s_])
 
     def predict(self, X) -> np.ndarray:
         """Modelled reading [g], (n, 3)."""
-        log = as_log(X)
+        log = validated_log(self, X, reset=False)
         out = np.empty((log.time_s.size, 3))
         lags: dict[float, np.ndarray] = {}
         for a in range(3):
@@ -141,6 +143,7 @@ class LagAwareCompensator(CompensatorBase):
 
     def equation(self) -> str:
         """The fitted model with values and units, one line per axis, then the lags."""
+        check_is_fitted(self)
         lines = []
         for a, ax in enumerate(AXES):
             die = f"T_die{'' if self.shared_ else '_' + ax}"

@@ -20,7 +20,7 @@ LAG_CACHE = 64  # full-length lagged temperatures kept: the grid's and the curre
 
 
 @dataclass(frozen=True)
-class Candidate:
+class LagCandidate:
     """One model structure tried during selection, scored on the training rows only.
 
     Attributes
@@ -105,7 +105,7 @@ def ar1_effective_n(residual: np.ndarray) -> np.ndarray:
 
 
 def search(profile: Profile, bounds_s: tuple[float, float], min_rate_tau_s: float, n_grid: int,
-           share: str, rate_term) -> tuple[Candidate, tuple[Candidate, ...]]:
+           share: str, rate_term) -> tuple[LagCandidate, tuple[LagCandidate, ...]]:
     """Grid + refinement of every allowed structure; returns (selected by BIC, all candidates)."""
     lo, hi = bounds_s
     die_grid = np.r_[lo if lo > 0 else 0.0, np.geomspace(max(lo, min_rate_tau_s), hi, n_grid)]
@@ -121,8 +121,8 @@ def search(profile: Profile, bounds_s: tuple[float, float], min_rate_tau_s: floa
     def score(sse: np.ndarray) -> float:
         return float((n_eff * np.log(sse / n)).sum())
 
-    def make(name, tau_d, tau_g, sse, k) -> Candidate:
-        return Candidate(name, tuple(map(float, tau_d)), tuple(map(float, tau_g)),
+    def make(name, tau_d, tau_g, sse, k) -> LagCandidate:
+        return LagCandidate(name, tuple(map(float, tau_d)), tuple(map(float, tau_g)),
                          tuple(np.sqrt(sse / n) * 1e3), k, score(sse) + k * ln_n)
 
     out = []

@@ -9,9 +9,13 @@ of its training rows, like the constant term of the other compensators.
 
 from __future__ import annotations
 
-import numpy as np
+import dataclasses
 
-from twin.calibration.lag import as_log, train_mask
+import numpy as np
+from sklearn.base import clone
+from sklearn.utils.validation import check_is_fitted
+
+from twin.calibration.lag import fit_inputs, validated_log
 from twin.calibration.models import AXES, CompensatorBase
 from twin.firmware import (
     G0_M_S2,
@@ -35,6 +39,15 @@ class _FirmwareMethod(CompensatorBase):
     """Fit on the training rows with the firmware tool's method; predict = level + its offset(T).
 
     ``y`` is the accelerometer in g (``sensor = "accel"``) or the gyro in rad/s (``"gyro"``).
+
+    Attributes
+    ----------
+    n_features_in_ : int
+        Columns of ``X`` seen in ``fit`` (2, or 3 with a run id).
+    cal_ : Px4AccelCal, Px4GyroCal, ArduPilotAccelCal or ArduPilotGyroCal
+        The firmware tool's fit, in SI units (m/s² or rad/s).
+    level_g_ : (3,) array
+        Mean of the training rows after the firmware's offset, in the unit of ``y``.
     """
 
     sensor = "accel"
@@ -44,9 +57,7 @@ class _FirmwareMethod(CompensatorBase):
 
     def fit(self, X, y, mask=None):
         """Fit on the rows of ``mask`` (a contiguous branch, as the tools expect). Returns self."""
-        log = as_log(X)
-        keep = train_mask(y, log.time_s.size, mask)
-        y = np.asarray(y, float)
+        log, y, keep = fit_inputs(self, X, y, mask)
         scale = UNIT[self.sensor][0]
         self.cal_ = self._fit_cal(log.time_s[keep], log.temperature_c[keep], y[keep] * scale)
         self.level_g_ = np.mean(y[keep] - self.cal_.offset(log.temperature_c[keep]) / scale, axis=0)
@@ -54,10 +65,11 @@ class _FirmwareMethod(CompensatorBase):
 
     def offset(self, X) -> np.ndarray:
         """The firmware's offset at each row's temperature, in the unit of ``y`` (n, 3)."""
-        return self.cal_.offset(as_log(X).temperature_c) / UNIT[self.sensor][0]
+        return self.cal_.offset(validated_log(self, X, reset=False).temperature_c) / UNIT[self.sensor][0]
 
     def predict(self, X) -> np.ndarray:
         """Modelled reading, (n, 3): the training level plus the firmware's offset at T."""
+        check_is_fitted(self)
         return self.level_g_ + self.offset(X)
 
     def compensate(self, X, reading: np.ndarray) -> np.ndarray:
@@ -66,6 +78,7 @@ class _FirmwareMethod(CompensatorBase):
 
     def equation(self) -> str:
         """The fitted offset polynomial per axis, as the firmware evaluates it (SI units)."""
+        check_is_fitted(self)
         p, unit = self.cal_.polynomial, UNIT[self.sensor][1]
         return "\n".join(f"{ax}: offset = " + " ".join(f"{c:+.6g}·(T − {p.tref_c:g} °C)^{k}" for k, c in
                                                        enumerate(p.coefficients[a])) + f" {unit}, T clipped to "
@@ -142,6 +155,20 @@ class AsTheVehicleApplies(CompensatorBase):
     Parameters
     ----------
     method : Px4Method, ArduPilotMethod or their gyro variants
+        Left unfitted: ``fit`` fits a clone of it.
+
+    Attributes
+    ----------
+    n_features_in_ : int
+        Columns of ``X`` seen in ``fit`` (2, or 3 with a run id).
+    inner_ : Px4Method, ArduPilotMethod or their gyro variants
+        The fitted clone of ``method``.
+    values_ : dict
+        The parameter file as the ground station parses it.
+    device_id_ : int
+        PX4 only: the device id written (``VALIDATION_DEVICE_ID`` when the method has none).
+    level_g_ : (3,) array
+        The inner method's training level, in the unit of ``y``.
     """
 
     def __init__(self, method):
@@ -149,9 +176,8 @@ class AsTheVehicleApplies(CompensatorBase):
 
     def fit(self, X, y, mask=None):
         """Fit the method on ``mask``'s rows and load its file as the vehicle would. Returns self."""
-        import dataclasses
-
-        self.inner_ = self.method.clone().fit(X, y, mask)
+        fit_inputs(self, X, y, mask)  # records n_features_in_; the clone below checks the same input again
+        self.inner_ = clone(self.method).fit(X, y, mask)
         cal = self.inner_.cal_
         if isinstance(self.method, Px4Method):
             if not cal.device_id:
@@ -165,7 +191,7 @@ class AsTheVehicleApplies(CompensatorBase):
 
     def offset(self, X) -> np.ndarray:
         """What the vehicle subtracts at each row, in the unit of ``y`` (n, 3)."""
-        log = as_log(X)
+        log = validated_log(self, X, reset=False)
         sensor, scale = self.method.sensor, UNIT[self.method.sensor][0]
         if isinstance(self.method, Px4Method):
             out = np.empty((log.time_s.size, 3))
@@ -178,4 +204,5 @@ class AsTheVehicleApplies(CompensatorBase):
 
     def predict(self, X) -> np.ndarray:
         """The training level plus the offset the vehicle applies."""
+        check_is_fitted(self)
         return self.level_g_ + self.offset(X)

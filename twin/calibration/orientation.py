@@ -17,7 +17,8 @@ from scipy.stats import t as student_t
 from twin.calibration.models import AXES
 from twin.errors import TwinError
 from twin.measurement import ImuLog
-from twin.measurement.quality import FACE_LABELS, LogQuality, assess_log, cluster_directions
+from twin.measurement.log_quality import LogQuality
+from twin.measurement.quality import FACE_LABELS, assess_log, cluster_directions, face_gravity
 
 LABELS = FACE_LABELS
 
@@ -122,8 +123,7 @@ def cluster_orientations(segments: list[StaticSegment], tol_deg: float = 10.0) -
     clusters = cluster_directions([s.direction for s in segments], tol_deg)
     found = []
     for c, (d, label) in enumerate(zip(clusters.directions, clusters.labels)):
-        k = int(np.argmax(np.abs(d)))
-        nominal = tuple(np.eye(3)[k] * np.sign(d[k])) if label != "tilted" else d
+        nominal = tuple(face_gravity(label)) if label != "tilted" else d
         g = tuple(i for i, m in enumerate(clusters.member_of) if m == c)
         found.append(Orientation(label, d, nominal, g, tuple(segments[j].temperature_c for j in g)))
     labels = tuple(o.label for o in found if o.label != "tilted")

@@ -78,12 +78,6 @@ class Recommendation:
                 + "leaves " + " / ".join(f"{v:.2f}" for v in self.cubic_rms_mg) + " mg ("
                 + " / ".join(f"{-s:+.0f} %" for s in share) + ")")
 
-    def to_json(self) -> dict:
-        return {"method": self.method, "reason": self.reason, "custom_firmware_gain": self.custom_firmware_gain(),
-                "verdicts": {v.method: {"folds": list(v.folds), "eligible": v.eligible, "reason": v.reason,
-                                        "rms_mg": dict(zip(AXES, v.rms_mg)) if v.rms_mg else None,
-                                        "worst_ratio_to_cubic": v.worst_ratio} for v in self.verdicts}}
-
 
 def validating_folds(protocol: Protocol, rate_dependent: bool) -> tuple[str, ...]:
     """Folds that can validate a method: all of them for a static one, two-direction ones otherwise."""

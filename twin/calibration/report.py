@@ -3,64 +3,93 @@ axis beside the noise floor, the recommendation, each method's equation, and res
 
 from __future__ import annotations
 
-import html
 from pathlib import Path
 
 import numpy as np
 
+from twin.arrays import temperature_rate_c_per_s
 from twin.calibration.lag import make_X
 from twin.calibration.models import AXES
 from twin.calibration.document import AS_APPLIED
 from twin.calibration.workflow import ImuCalibration
-from twin.io import atomic_write_text
 from twin.measurement import ImuLog
+from twin.reporting.page import Page
 from twin.reporting.plots import png_base64
 from twin.reporting.study_plots import ResidualByMethodDisplay
 
 
-def _table(v, unit: str = "mg") -> str:
-    head = "<tr><th>fold: test</th><th>method</th>" + "".join(f"<th>{a} [{unit}]</th>" for a in AXES) + \
-           "<th>extrapolated</th></tr>"
-    rows = "".join(f"<tr><td>{html.escape(s.fold)}: {html.escape(s.test)}</td><td>{s.method}</td>"
-                   + "".join(f"<td>{x:.3f}</td>" for x in s.rms_mg) + f"<td>{100 * s.extrapolated_fraction:.0f} %</td></tr>"
-                   for s in v.scores)
-    floor = "<tr><td colspan=2>noise floor</td>" + "".join(f"<td>{x:.3f}</td>" for x in v.noise_floor_mg) + "<td></td></tr>"
-    note = (f"<p>'&lt;method&gt;{AS_APPLIED}': the file written for the method, applied as the vehicle applies it "
-            "(float32; PX4 republishes its offset only after the temperature moved more than 1 °C, checked once a "
-            "second; ArduPilot re-references at the calibration temperature).</p>")
-    return f"<table>{head}{rows}{floor}</table>{note}"
+AS_APPLIED_NOTE = (f"'<method>{AS_APPLIED}': the file written for the method, applied as the vehicle applies it "
+                   "(float32; PX4 republishes its offset only after the temperature moved more than 1 °C, checked "
+                   "once a second; ArduPilot re-references at the calibration temperature).")
 
 
-def _ledger(c: ImuCalibration) -> str:
+def _validation(page: Page, v, unit: str = "mg") -> None:
+    """The held-out table: one row per fold, test and method, the noise floor last."""
+    rows = [[f"{s.fold}: {s.test}", s.method, *(f"{x:.3f}" for x in s.rms_mg), f"{100 * s.extrapolated_fraction:.0f} %"]
+            for s in v.scores]
+    rows.append(["noise floor", "", *(f"{x:.3f}" for x in v.noise_floor_mg), ""])
+    page.table(rows, ["fold: test", "method", *(f"{a} [{unit}]" for a in AXES), "extrapolated"])
+    page.text(AS_APPLIED_NOTE)
+
+
+def _ledger(page: Page, c: ImuCalibration) -> None:
     """Held-out RMS per axis as physics is added (static cubic → the twin's lag and rate term → the
     composed effects), pooled over the folds that both heat and cool, so every row is validated alike."""
     folds = tuple(name for name, both in c.fold_directions if both)
+    page.heading("Held-out ledger: the error as physics is added", 3)
     if not folds:
-        return "<p>No fold both heats and cools: the twin's lag and rate term are not validated on this data.</p>"
+        page.text("No fold both heats and cools: the twin's lag and rate term are not validated on this data.")
+        return
     order = [m for m in ("px4", "ardupilot", "polynomial", "twin") if m in c.validation.methods]
     order += [m for m in c.validation.methods if m not in order and not m.endswith(AS_APPLIED)]
-    rows = "".join(f"<tr><td>{html.escape(m)}</td>" + "".join(f"<td>{x:.3f}</td>" for x in c.validation.rms_mg(
-        m, "overall", folds)) + "</tr>" for m in order if any(s.method == m and s.fold in folds for s in c.validation.scores))
-    return (f"<h3>Held-out ledger: the error as physics is added</h3><p>Pooled over {html.escape(', '.join(folds))}.</p>"
-            "<table><tr><th>model</th>" + "".join(f"<th>{a} [mg]</th>" for a in AXES) + f"</tr>{rows}</table>")
+    page.text(f"Pooled over {', '.join(folds)}.")
+    page.table([[m, *(f"{x:.3f}" for x in c.validation.rms_mg(m, "overall", folds))] for m in order
+                if any(s.method == m and s.fold in folds for s in c.validation.scores)],
+               ["model", *(f"{a} [mg]" for a in AXES)])
 
 
-def _quality(c: ImuCalibration) -> str:
+def _quality(page: Page, c: ImuCalibration) -> None:
     """What was fitted, and what was excluded and why, per log."""
-    out = []
     for q in c.quality:
-        rows = "".join(f"<tr><td>{'used' if r.used else 'excluded'}</td><td>{html.escape(r.kind)}</td>"
-                       f"<td>{r.from_s:.1f}</td><td>{r.to_s:.1f}</td><td>{r.duration_s:.1f}</td>"
-                       f"<td>{html.escape(r.orientation)}</td><td>{html.escape(r.reason)}</td></tr>"
-                       for r in q.table_rows())
-        out.append(f"<p>{html.escape(q.summary())}</p><table><tr><th></th><th>kind</th><th>from [s]</th>"
-                   f"<th>to [s]</th><th>duration [s]</th><th>face</th><th>why</th></tr>{rows}</table>")
-    return "".join(out)
+        page.text(q.summary())
+        page.table([["used" if r.used else "excluded", r.kind, f"{r.from_s:.1f}", f"{r.to_s:.1f}", f"{r.duration_s:.1f}",
+                     r.orientation, r.reason] for r in q.table_rows()],
+                   ["", "kind", "from [s]", "to [s]", "duration [s]", "face", "why"])
+
+
+def _summary(c: ImuCalibration) -> list[str]:
+    """The IMU's verdict in plain sentences: what each firmware gets, and why this default."""
+    rec = c.recommended()
+    device = "device id not logged" if c.device_id is None else f"device id {c.device_id}"
+    out = [f"IMU {c.instance} ({device}): {c.samples} samples, {c.temperature_span_c[0]:.1f} to "
+           f"{c.temperature_span_c[1]:.1f} °C, validated by {c.protocol}.",
+           "Recommended: " + "; ".join(f"{label}: {rec.get(k) or 'none (flagged or not fitted)'}" for k, label in
+                                       (("px4", "PX4"), ("ardupilot", "ArduPilot"), ("c", "custom C and twin apply")))
+           + ". Best per axis: " + ", ".join(f"{a} {m}" for a, m in zip(AXES, c.validation.best_method)) + "."]
+    if c.recommendation is not None:
+        out.append(f"Why this default: {c.recommendation.reason}.")
+        gain = c.recommendation.custom_firmware_gain()
+        if gain:
+            out.append(gain[0].upper() + gain[1:] + ".")
+    return out
 
 
 def write_calibration_report(directory: Path, calibrations: list[ImuCalibration], logs: dict[int, list[ImuLog]]) -> Path:
-    """Write ``report.html`` into ``directory``; ``logs``: each IMU instance's logs, as calibrated."""
-    parts = []
+    """Write ``report.html`` into ``directory``.
+
+    Parameters
+    ----------
+    directory : Path
+    calibrations : list of ImuCalibration
+    logs : dict of int to list of ImuLog
+        Each IMU instance's logs, as calibrated.
+
+    Returns
+    -------
+    Path
+    """
+    page = Page("Temperature calibration, validated on held-out data",
+                [line for c in calibrations for line in _summary(c)])
     for c in calibrations:
         data = logs[c.instance]
         used = np.concatenate([q.usable_static for q in c.quality]) if c.quality else slice(None)  # the rows fitted
@@ -69,44 +98,41 @@ def write_calibration_report(directory: Path, calibrations: list[ImuCalibration]
         accel = np.concatenate([log.accel_g for log in data])[used]
         run = np.concatenate([np.full(len(log), k) for k, log in enumerate(data)])[used] if len(data) > 1 else None
         X = make_X(time_s, temp, run)
-        heating = np.gradient(temp) > 0
-        parts.append(f"<h2>IMU {c.instance} (device_id {c.device_id}), {c.samples} samples, "
-                     f"{c.temperature_span_c[0]:.1f}…{c.temperature_span_c[1]:.1f} °C — {html.escape(c.protocol)}</h2>")
-        rec = c.recommended()
-        parts.append("<p>Recommended: " + html.escape(", ".join(
-            f"{label} {rec.get(k) or 'none (flagged or not fitted)'}" for k, label in
-            (("px4", "PX4"), ("ardupilot", "ArduPilot"), ("c", "custom C and twin apply")))) + "; best per axis: "
-                     f"{html.escape(', '.join(f'{a} {m}' for a, m in zip(AXES, c.validation.best_method)))}</p>")
+        heating = temperature_rate_c_per_s(1.0, temp) > 0  # the sign only: rows taken as evenly spaced
+        device = "device id not logged" if c.device_id is None else f"device id {c.device_id}"
+        page.heading(f"IMU {c.instance} ({device})")
         if c.recommendation is not None:
-            parts.append(f"<p>Why this default: {html.escape(c.recommendation.reason)}</p>")
-            gain = c.recommendation.custom_firmware_gain()
-            if gain:
-                parts.append(f"<p>{html.escape(gain[0].upper() + gain[1:])}.</p>")
-            parts.extend(f"<p>Not the default: {html.escape(v.reason)}</p>" for v in c.recommendation.verdicts
-                         if not v.eligible)
-        parts.append(_quality(c))
-        parts.append(_ledger(c))
-        parts.append(_table(c.validation))
-        parts.extend(f"<p>{html.escape(n)}</p>" for n in c.validation.notes + c.notes)
-        parts.extend(f"<p><b>flagged</b> (not recommended, not exported without --force): {html.escape(r)}</p>"
-                     for reasons in (c.flags or {}).values() for r in reasons)
+            for v in c.recommendation.verdicts:
+                if not v.eligible:
+                    page.text(f"Not the default: {v.reason}")
+        page.heading("Rows used and excluded", 3)
+        _quality(page, c)
+        _ledger(page, c)
+        page.heading("Held-out RMS by fold", 3)
+        _validation(page, c.validation)
+        page.text(*c.validation.notes, *c.notes)
+        for reasons in (c.flags or {}).values():
+            for r in reasons:
+                page.text(f"Flagged (not recommended, not exported without --force): {r}")
         if c.gyro is not None:
-            parts.append(f"<h3>Gyro (device_id {c.gyro.device_id})</h3>" + _table(c.gyro.validation, "mrad/s"))
-            parts.extend(f"<p><b>flagged</b>: {html.escape(r)}</p>" for reasons in c.gyro.flags.values() for r in reasons)
+            gyro_device = "device id not logged" if c.gyro.device_id is None else f"device id {c.gyro.device_id}"
+            page.heading(f"Gyro ({gyro_device})", 3)
+            _validation(page, c.gyro.validation, "mrad/s")
+            for reasons in c.gyro.flags.values():
+                for r in reasons:
+                    page.text(f"Flagged: {r}")
         if c.orientations:
-            parts.append(f"<p>Orientations: {html.escape(c.orientations['kind'])}, found "
-                         f"{' '.join(c.orientations['found'])}; the residual plots are skipped (gravity moves between axes).</p>")
+            page.text(f"Orientations: {c.orientations['kind']}, found {' '.join(c.orientations['found'])}; the residual "
+                      "plots are skipped (gravity moves between axes).")
         else:
+            page.heading("Residual by method", 3)
             residual = {m: (accel - est.predict(X)) * 1e3 for m, est in c.fitted.items()}
             for i, a in enumerate(AXES):
                 disp = ResidualByMethodDisplay(a, temp, {m: r[:, i] for m, r in residual.items()}, heating,
                                                c.validation.noise_floor_mg[i])
-                parts.append(f"<h3>{html.escape(disp.title)}</h3><img src='data:image/png;base64,{png_base64(disp.plot())}'>")
-        parts.extend(f"<h3>{m}</h3><pre>{html.escape(est.equation())}</pre>" for m, est in c.fitted.items()
-                     if hasattr(est, "equation"))
-    page = ("<!doctype html><html><head><meta charset='utf-8'><title>twin calibrate</title><style>"
-            "body{font-family:sans-serif;max-width:1100px;margin:auto} td,th{border:1px solid #ccc;padding:2px 6px;"
-            "font-size:13px}</style></head><body><h1>Temperature calibration, validated on held-out data</h1>"
-            + "".join(parts) + "</body></html>")
-    directory.mkdir(parents=True, exist_ok=True)
-    return atomic_write_text(directory / "report.html", page)
+                page.figure(png_base64(disp.plot()), disp.title)
+        page.heading("Fitted equations", 3)
+        for m, est in c.fitted.items():
+            if hasattr(est, "equation"):
+                page.heading(m, 3).code(est.equation())
+    return page.write(directory / "report.html")

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from sklearn.base import clone
 
 from twin.calibration.branches import protocol_as_used
 from twin.calibration.composed import ComposedCompensator, composed_notes
@@ -25,7 +26,7 @@ from twin.calibration.methods import (
     Px4GyroMethod,
     Px4Method,
 )
-from twin.calibration.models import AXES, PolynomialCompensator
+from twin.calibration.models import AXES, TemperaturePolynomial
 from twin.calibration.orientation import cluster_orientations, fit_offset_scale, segments_of
 from twin.calibration.plausibility import (
     PlausibilityLimits,
@@ -43,7 +44,8 @@ from twin.firmware.common import DEVICE_ID_MAX
 from twin.firmware.px4 import PX4_INSTANCES as PX4_SLOTS
 from twin.measurement import ImuLog, usable_for_calibration
 from twin.measurement.imu import MIN_SAMPLES, MIN_TEMPERATURE_RANGE_C
-from twin.measurement.quality import LogQuality, LogQualityError, QualitySettings, assess_log
+from twin.measurement.log_quality import LogQuality, LogQualityError, QualitySettings
+from twin.measurement.quality import assess_log
 
 # what custom C (and twin apply by default) can run; PX4 and ArduPilot run only their own polynomial
 C_CANDIDATES = ("twin", "polynomial", "px4", "ardupilot")
@@ -203,7 +205,7 @@ def still_rows(qualities: tuple[LogQuality, ...], min_static_s: float = MIN_STAT
     return np.concatenate([q.usable_static for q in qualities])
 
 
-def check_instance(instance: int, where: str) -> None:
+def check_calibration_instance(instance: int, where: str) -> None:
     """An IMU instance some firmware has a calibration slot for (PX4 0..3, ArduPilot 0..2 → INS_TCAL1..3)."""
     if instance not in PX4_INSTANCES:
         raise CalibrationInputError(f"{where}: IMU instance {instance}; PX4 has TC_A0..TC_A3 and ArduPilot "
@@ -225,7 +227,7 @@ def methods_for(instance: int, device_id: int | None, extra: dict | None = None)
     models = {"px4": Px4Method(instance=instance, device_id=int(device_id or 0))}
     if instance in ARDUPILOT_INSTANCES:
         models["ardupilot"] = ArduPilotMethod(instance=instance + 1)
-    models.update(polynomial=PolynomialCompensator(), twin=LagAwareCompensator())
+    models.update(polynomial=TemperaturePolynomial(), twin=LagAwareCompensator())
     models.update(extra or {})
     return models
 
@@ -255,7 +257,7 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
         _check_log(log)
     first = logs[0]
     where = f"{first.source} instance {first.instance}"
-    check_instance(first.instance, where)
+    check_calibration_instance(first.instance, where)
     logged = {log.device_id for log in logs if log.device_id}
     if len(logged) > 1:
         raise CalibrationInputError(f"{where}: the logs record device ids {sorted(logged)}; expected one IMU")
@@ -284,7 +286,7 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     fitted, unfit = {}, {}
     for name, est in models.items():
         try:
-            fitted[name] = est.clone().fit(X, accel_g)
+            fitted[name] = clone(est).fit(X, accel_g)
         except CalibrationRangeError as exc:  # ArduPilot's 10 °C after its filter: the others still stand
             unfit[name] = str(exc)
     gyro, gyro_rad_s, gyro_note = None, None, ()
@@ -351,7 +353,7 @@ def calibrate_gyro(log: ImuLog, X: np.ndarray, gyro_rad_s: np.ndarray, protocol,
     if log.instance in ARDUPILOT_INSTANCES:
         models["ardupilot"] = ArduPilotGyroMethod(instance=log.instance + 1)
     validation = validate({**models, **as_applied(models)}, X[:, 0], X[:, 1], gyro_rad_s, protocol, run=run)
-    fitted = {name: est.clone().fit(X, gyro_rad_s) for name, est in models.items()}
+    fitted = {name: clone(est).fit(X, gyro_rad_s) for name, est in models.items()}
     span = (float(X[:, 1].min()), float(X[:, 1].max()))
     flags = {name: gyro_flags(name, est, span) for name, est in fitted.items()}
     return GyroCalibration(device, validation, fitted, flags)

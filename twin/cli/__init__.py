@@ -64,7 +64,18 @@ def _interrupted() -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Console entry point: usage errors and our errors exit 2 with one line."""
+    """Console entry point: usage errors and our errors exit 2 with one line.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments after ``twin`` (default: ``sys.argv[1:]``).
+
+    Raises
+    ------
+    SystemExit
+        Always: 0 on success, 1 for an internal error, 2 for bad input, 130 when interrupted.
+    """
     _SIGINTS.clear()
     previous = signal.getsignal(signal.SIGINT)
     if previous is signal.default_int_handler:
@@ -92,7 +103,11 @@ def _main(argv: list[str] | None) -> None:
     except TyperException as exc:  # usage: missing argument, unknown option, bad value: one line
         ctx = getattr(exc, "ctx", None)
         hint = f" (see 'twin {ctx.info_name} --help')" if ctx is not None and ctx.parent is not None else ""
-        message = " ".join(exc.format_message().split()) or "missing command (see 'twin --help')"
+        # no command at all: its "message" is the whole help text (plain, with rich markup off)
+        # (typer vendors click, so the class is named rather than imported)
+        bare = type(exc).__name__ == "NoArgsIsHelpError"
+        message = "" if bare else " ".join(exc.format_message().split())
+        message = message or "missing command (see 'twin --help')"
         typer.echo(f"twin: error: {message}{hint}", err=True)
         sys.exit(2)
     except MemoryError:

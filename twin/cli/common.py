@@ -25,19 +25,40 @@ app = typer.Typer(
     add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
+    # help texts are plain text: a unit in brackets ("[mg/°C]") is not a markup tag to drop
+    rich_markup_mode=None,
 )
 
 JsonOpt = Annotated[Optional[str], typer.Option("--json", help="write the result as JSON to PATH ('-' for stdout)")]
 
 
 def fail(message: str) -> None:
-    """Print ``twin: error: message`` on one line and exit with status 2."""
+    """Print ``twin: error: message`` on one line and exit with status 2.
+
+    Parameters
+    ----------
+    message : str
+        The error (whitespace runs, newlines included, become one space).
+
+    Raises
+    ------
+    typer.Exit
+        Always, with code 2.
+    """
     typer.echo(f"twin: error: {' '.join(str(message).split())}", err=True)
     raise typer.Exit(2)
 
 
 def emit_json(result: dict, dest: str | None) -> None:
-    """Write ``result`` to ``dest`` atomically ('-' = stdout)."""
+    """Write ``result`` to ``dest`` atomically ('-' = stdout).
+
+    Parameters
+    ----------
+    result : dict
+        JSON-able; NaN and infinities are written as strict JSON (:func:`twin.io.strict_json`).
+    dest : str or None
+        The ``--json`` value: a file, ``-`` (stdout) or None (nothing written).
+    """
     if dest is None:
         return
     from twin.io import strict_json
@@ -57,7 +78,21 @@ def emit_json(result: dict, dest: str | None) -> None:
 
 
 def check_outputs(inputs, outputs) -> None:
-    """Refuse an output that is one of the inputs or a directory (missing folders are created)."""
+    """Refuse an output that is one of the inputs or a directory (missing folders are created).
+
+    Parameters
+    ----------
+    inputs : iterable of str or Path or None
+        The command's input files (None entries skipped).
+    outputs : iterable of str or Path or None
+        Its output files (None and ``-`` skipped).
+
+    Raises
+    ------
+    TwinError
+        An output that overwrites an input, is not a regular file, lies under a file, is in a
+        folder that cannot be written, or is named twice.
+    """
     resolved = {_resolved(Path(p)) for p in inputs if p is not None}
     for out in outputs:
         if out is None or str(out) == "-":
@@ -111,6 +146,16 @@ def guard(inputs=(), outputs=()) -> Iterator[None]:
 
     Warnings raised on the way (a NumPy division on a malformed column) are held back: after an
     error the one line stands alone; after success they are shown as usual.
+
+    Parameters
+    ----------
+    inputs, outputs : iterable of str or Path or None
+        As :func:`check_outputs`.
+
+    Yields
+    ------
+    None
+        The body runs here; a :class:`TwinError` or ``OSError`` in it ends with :func:`fail`.
     """
     import warnings
 
@@ -128,7 +173,19 @@ def guard(inputs=(), outputs=()) -> Iterator[None]:
 
 
 def column_map(columns: Path | None, **overrides):
-    """A column map from ``--columns`` (YAML) with the command-line overrides that were given."""
+    """A column map from ``--columns`` (YAML) with the command-line overrides that were given.
+
+    Parameters
+    ----------
+    columns : Path or None
+        The ``--columns`` YAML (None: the default map).
+    **overrides
+        Column-map attributes; those that are None (not given) are left alone.
+
+    Returns
+    -------
+    ColumnMap
+    """
     from twin.measurement import ColumnMap
 
     cmap = ColumnMap.from_yaml(columns) if columns else ColumnMap()
@@ -139,7 +196,23 @@ def column_map(columns: Path | None, **overrides):
 
 
 def parse_axes(text: str) -> list[str]:
-    """``--axes x,y,z`` as a list; anything but a subset of x, y, z is an error."""
+    """``--axes x,y,z`` as a list; anything but a subset of x, y, z is an error.
+
+    Parameters
+    ----------
+    text : str
+        The ``--axes`` value, comma-separated.
+
+    Returns
+    -------
+    list of str
+        The axes, in the order given.
+
+    Raises
+    ------
+    TwinError
+        An empty list, or an axis other than x, y, z.
+    """
     axes = [a.strip() for a in text.split(",") if a.strip()]
     if not axes or any(a not in ("x", "y", "z") for a in axes):
         raise TwinError(f"--axes expects a comma-separated subset of x,y,z, got {text!r}")

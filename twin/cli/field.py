@@ -112,31 +112,6 @@ def _print_table(c, axes: list[str]) -> None:
             typer.echo(f"  flagged (not exported without --force): {reason}")
 
 
-def _composed_methods(with_effect: list[str], effects_from: Path | None, plugins: list[str]):
-    """(extra methods for every IMU, per-instance effects compare named) from the options."""
-    from twin.calibration.composed import ComposedCompensator, effects_named_by_compare
-    from twin.effects import get_effect
-    from twin.io import read_json
-    from twin.plugins import import_plugin
-
-    for spec in plugins:
-        import_plugin(spec)
-    for name in with_effect:
-        get_effect(name)  # an unknown name: "did you mean", before any fitting
-    extra = {"twin+" + "+".join(dict.fromkeys(with_effect)): ComposedCompensator(tuple(dict.fromkeys(with_effect)))} \
-        if with_effect else {}
-    compared = (effects_named_by_compare(read_json(effects_from, "compare result", TwinError), str(effects_from))
-                if effects_from else {})
-    for named in compared.values():
-        for axis, names in named.items():
-            for name in names:
-                try:
-                    get_effect(name)
-                except TwinError as exc:
-                    raise TwinError(f"{effects_from}: axis {axis}: {exc} (load its plugin with --plugin)") from None
-    return extra, compared
-
-
 @app.command()
 def calibrate(
     logs: Annotated[list[Path], typer.Argument(help="logs of one vehicle or tester: PX4 .ulg, ArduPilot .bin, 3-axis CSV/TSV (several = several runs)")],
@@ -161,19 +136,49 @@ def calibrate(
     json_out: JsonOpt = None,
 ) -> None:
     """Fit the PX4 and ArduPilot methods, a held-out polynomial and the lag-aware twin per IMU;
-    validate each on data it was not fitted on (heating vs cooling, or leave one run out)."""
-    from twin import __version__
-    from twin.calibration.plausibility import limits_for_part
-    from twin.calibration.document import calibration_json, file_provenance
-    from twin.calibration.workflow import calibrate_imus
-    from twin.measurement import imu_logs_by_instance
+    validate each on data it was not fitted on (heating vs cooling, or leave one run out).
+    \f
+
+    Parameters
+    ----------
+    logs : list of Path
+        Logs of one vehicle or tester (PX4 ``.ulg``, ArduPilot ``.bin``, 3-axis CSV/TSV); one run each.
+    output : Path
+        The calibration document to write (JSON; ``-``: stdout).
+    axes : str
+        Axes to calibrate, comma-separated.
+    imu : str
+        IMU instance to calibrate, or ``all``.
+    columns : Path, optional
+        Column-map YAML for delimited logs.
+    time_col, temperature_col, x_col, y_col, z_col : str, optional
+        Columns of a delimited log.
+    time_unit, output_unit : str, optional
+        Units of the time (s, ms, us, min, h) and acceleration (g, mg, m/s^2, digits) columns.
+    no_reverse : bool
+        Validate heating→cooling only.
+    device_id : int, optional
+        The accelerometer's device id when the log does not record it.
+    with_effect : list of str, optional
+        Library effects the twin also fits on every axis.
+    effects_from : Path, optional
+        JSON of ``twin compare --axes``: the effects it named, per IMU and axis.
+    plugin : list of str, optional
+        Effect modules (``.py`` path or module name) to load for ``with_effect``; runs their code.
+    part : str
+        Part set whose datasheet TCOff [mg/°C] and TCSo [ppm/°C] bound a plausible fit.
+    report : Path, optional
+        Folder for ``report.html``.
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
+    from twin.workflows.calibrate import CalibrateOptions, run_calibrate
 
     extra_inputs = ([columns] if columns else []) + ([effects_from] if effects_from else []) + \
         [Path(p) for p in plugin or [] if p.endswith(".py")]
     with guard(inputs=logs + extra_inputs, outputs=_outputs(output, json_out)):
         _distinct(output, json_out)
         chosen = parse_axes(axes)
-        extra, compared = _composed_methods(with_effect or [], effects_from, plugin or [])
         if report is not None and report.exists() and not report.is_dir():
             raise TwinError(f"{report}: exists and is not a folder; --report expects a folder to write into")
         if report is not None:  # checked before the calibration is written, not after
@@ -182,19 +187,13 @@ def calibrate(
             check_outputs(logs, [report / "report.html"])
         cmap = column_map(columns, time=time_col, temperature=temperature_col, x=x_col, y=y_col, z=z_col,
                           time_unit=time_unit, output_unit=output_unit)
-        per = imu_logs_by_instance(logs, cmap, imu)
-        if device_id is not None and len(per) > 1:
-            raise TwinError(f"--device-id names one sensor, but the logs hold IMU instances {sorted(per)}; "
-                            "choose one with --imu")
-        limits = limits_for_part(part)
-        results, skipped = calibrate_imus(per, reverse=not no_reverse, device_id=device_id, limits=limits,
-                                          extra_methods=extra, compared=compared)
-        doc = calibration_json(results, file_provenance(logs), __version__, skipped)
+        run = run_calibrate(CalibrateOptions.build(
+            logs=logs, columns=cmap, imu=imu, reverse=not no_reverse, device_id=device_id,
+            with_effects=with_effect or [], effects_from=effects_from, plugins=plugin or [], part=part))
+        results, skipped, doc = run.calibrations, run.skipped, run.document.to_json()
         emit_json(doc, str(output))
         if report is not None:
-            from twin.calibration.report import write_calibration_report
-
-            write_calibration_report(report, results, per)
+            run.write_report(report)
     if json_out != "-" and str(output) != "-":  # standard output carries the document alone
         for c in results:
             _print_table(c, chosen)
@@ -220,7 +219,30 @@ def firmware(
     force: Annotated[bool, typer.Option("--force", help="export a method the calibration flagged as implausible")] = False,
     json_out: JsonOpt = None,
 ) -> None:
-    """Write the compensation in the exact format a flight controller or custom firmware loads."""
+    """Write the compensation in the exact format a flight controller or custom firmware loads.
+    \f
+
+    Parameters
+    ----------
+    calibration : Path
+        Calibration document from ``twin calibrate``.
+    fmt : {"px4", "ardupilot", "json", "c"}
+        ``--format``.
+    output : Path
+        The file to write.
+    method : str, optional
+        Method to export (default: the format's recommended one).
+    imu : int, optional
+        IMU instance (json and c write one).
+    sample_rate_hz : float, optional
+        Rate the firmware runs the lag filters at (c) [Hz].
+    device_id, gyro_device_id : int, optional
+        The accelerometer's and gyro's device ids when the calibration has none (px4).
+    force : bool
+        Export a method the calibration flagged as implausible.
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
     from twin.calibration.deploy import export_calibration, read_calibration
 
     with guard(inputs=[calibration], outputs=_outputs(output, json_out)):
@@ -253,7 +275,30 @@ def apply(
     force: Annotated[bool, typer.Option("--force", help="apply a method the calibration flagged as implausible")] = False,
     json_out: JsonOpt = None,
 ) -> None:
-    """Compensate a new log with a calibration: time, temperature, raw and compensated x, y, z."""
+    """Compensate a new log with a calibration: time, temperature, raw and compensated x, y, z.
+    \f
+
+    Parameters
+    ----------
+    calibration : Path
+        Calibration document from ``twin calibrate``.
+    log : Path
+        A new log of the same IMU.
+    output : Path
+        The compensated CSV to write (accelerations in g, time in s, temperature in °C).
+    method : str, optional
+        Method to apply (default: the best deployable).
+    imu : int, optional
+        IMU instance of the log (default: the calibrated one).
+    applied_g : str, optional
+        True acceleration per axis ``gx,gy,gz`` [g], for a residual summary [mg].
+    columns : Path, optional
+        Column-map YAML for delimited logs.
+    force : bool
+        Apply a method the calibration flagged as implausible.
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
     import numpy as np
 
     from twin.calibration.deploy import correction_g, imu_entry, method_entry, read_calibration

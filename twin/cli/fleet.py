@@ -3,12 +3,62 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
 from twin.cli.common import JsonOpt, app, check_outputs, emit_json, guard
+
+
+@contextmanager
+def progress_bar(desc: str, unit: str) -> Iterator[Callable[[int, int], None]]:
+    """A ``progress(done, total)`` for a workflow: a bar on stderr (on a terminal only), opened at
+    the first report, once the workflow has read its input and knows the total.
+
+    Parameters
+    ----------
+    desc, unit : str
+        The bar's label and the name of what it counts.
+
+    Yields
+    ------
+    callable
+        ``progress(done, total)``.
+    """
+    from tqdm import tqdm
+
+    bars = []
+
+    def report(done: int, total: int) -> None:
+        if not bars:
+            bars.append(tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, disable=None))
+        bars[0].update(done - bars[0].n)
+
+    try:
+        yield report
+    finally:
+        for bar in bars:
+            bar.close()
+
+
+def checked_with_json(json_out: str | None) -> Callable[[list, list], None]:
+    """A workflow's ``check_paths``: its outputs and the ``--json`` file checked against its inputs.
+
+    Parameters
+    ----------
+    json_out : str or None
+        The ``--json`` value (``-``: stdout, no file).
+
+    Returns
+    -------
+    callable
+        ``check_paths(inputs, outputs)``.
+    """
+    target = None if json_out == "-" else json_out
+    return lambda inputs, outputs: check_outputs(inputs, [*outputs, target])
 
 
 @app.command()
@@ -23,56 +73,51 @@ def fleet(
     json_out: JsonOpt = None,
 ) -> None:
     """Analyse every unit of a fleet, durably: one line per finished unit in units.jsonl, a rerun
-    skips finished units; a unit whose log is bad is recorded with its error and the others go on."""
-    from tqdm import tqdm
+    skips finished units; a unit whose log is bad is recorded with its error and the others go on.
+    \f
 
-    from twin.fleet.ledger import FOLDER_OUTPUTS
-    from twin.fleet.population import population, write_population, write_table
-    from twin.fleet.runner import run_fleet
-    from twin.fleet.spec import load_fleet_spec
-    from twin.fleet.summary import write_summary
+    Parameters
+    ----------
+    spec : str
+        Fleet YAML, or a glob / folder of unit logs.
+    output : Path
+        Output folder (``units.jsonl``, ``table.csv``, ``population.json``, ``summary.html``).
+    workers : int
+        Parallel units.
+    executor : {"local", "dask"}
+        Where the units are analysed.
+    scheduler : str, optional
+        Address of a running Dask scheduler (default: a local cluster of ``workers``).
+    scenario : Path, optional
+        The twin's scenario (overrides the spec's; required with a glob).
+    command : {"compare", "calibrate"}, optional
+        Overrides the spec's analysis.
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
+    from twin.results import to_json
+    from twin.workflows.fleet import FleetOptions, run_fleet
 
     with guard():
-        if executor not in ("local", "dask"):
-            raise_twin(f"--executor must be 'local' or 'dask', got {executor!r}")
-        fs = load_fleet_spec(spec, scenario, command)
-        inputs = {Path(f).resolve() for u in fs.units for f in u.files}
-        if output.resolve() in inputs or any(output.resolve() in p.parents for p in inputs):
-            raise_twin(f"{output}: the output folder holds the fleet's logs; choose another folder")
-        # --json checked now, not after every unit ran: never over an input or the fleet's own files
-        own = [output / name for name in ("units.jsonl", ".lock", *FOLDER_OUTPUTS)]
-        # and the fleet's own files never over an input (a --scenario named out/table.csv was replaced), nor a
-        # folder where a file goes (units.jsonl as a folder failed after the first unit)
-        check_outputs([*inputs, spec, fs.scenario], [*own, None if json_out == "-" else json_out])
-        with tqdm(total=len(fs.units), desc="units", unit="unit", file=sys.stderr, disable=None) as bar:
-            run = run_fleet(fs, output, workers, executor, scheduler, progress=lambda r: bar.update(1))
-        pop = population(run.records, fs.outlier_threshold)
-        write_table(output, run.records)
-        write_population(output, pop)
-        write_summary(output, run.records, pop, title=f"twin fleet: {fs.name or fs.source}")
-    result = {"output": str(output), "units": len(fs.units), "ran": run.ran, "skipped": run.skipped,
-              "notes": run.notes, **{k: pop[k] for k in ("ok", "errors", "prevalence", "prevalence_by_family",
-                                                          "prevalence_primary_family", "none_named", "confidence", "parameters", "outliers", "failed")}}
+        opts = FleetOptions.build(spec=spec, output=output, workers=workers, executor=executor, scheduler=scheduler,
+                                  scenario=scenario, command=command)
+        # --json checked with the fleet's own files once the spec is read, before any unit runs
+        with progress_bar("units", "unit") as progress:
+            result = run_fleet(opts, progress=progress, check_paths=checked_with_json(json_out))
     if json_out != "-":
-        for note in run.notes:
+        for note in result.notes:
             typer.echo(f"note: {note}")
-        typer.echo(f"{pop['ok']}/{len(fs.units)} units analysed ({pop['errors']} failed; {run.ran} ran now, "
-                   f"{run.skipped} already done) -> {output}/table.csv, population.json, summary.html")
-        for name, v in pop["prevalence"].items():
-            typer.echo(f"  {name}: named in {v['units']} units ({100 * v['share']:.1f} %)")
-        for fam, v in pop["prevalence_primary_family"].items():
-            typer.echo(f"  family {fam} named first: {v['units']} units ({100 * v['share']:.1f} %)")
-        if pop["outliers"]:
-            typer.echo(f"  outliers: {len(pop['outliers'])} (|robust z| > {fs.outlier_threshold:g}); see population.json")
-        for f in pop["failed"][:5]:
-            typer.echo(f"  failed {f['unit']}: {f['error']}")
-    emit_json(result, json_out)
-
-
-def raise_twin(message: str) -> None:
-    from twin.errors import TwinError
-
-    raise TwinError(message)
+        typer.echo(f"{result.ok}/{result.units} units analysed ({result.errors} failed; {result.ran} ran now, "
+                   f"{result.skipped} already done) -> {output}/table.csv, population.json, summary.html")
+        for name, v in result.prevalence.items():
+            typer.echo(f"  {name}: named in {v.units} units ({100 * v.share:.1f} %)")
+        for fam, v in result.prevalence_primary_family.items():
+            typer.echo(f"  family {fam} named first: {v.units} units ({100 * v.share:.1f} %)")
+        if result.outliers:
+            typer.echo(f"  outliers: {len(result.outliers)} (|robust z| > {result.outlier_threshold:g}); see population.json")
+        for f in result.failed[:5]:
+            typer.echo(f"  failed {f.unit}: {f.error}")
+    emit_json(to_json(result), json_out)
 
 
 @app.command("fleet-simulate")
@@ -83,26 +128,30 @@ def fleet_simulate(
     json_out: JsonOpt = None,
 ) -> None:
     """Simulate a fleet: each unit's log (canonical CSV) and, apart, the truth; then
-    'twin fleet OUT/fleet.yaml -o DIR' analyses it blind."""
-    from tqdm import tqdm
+    'twin fleet OUT/fleet.yaml -o DIR' analyses it blind.
+    \f
 
-    from twin.fleet.simulate import load_fleet_scenario, simulate_fleet
+    Parameters
+    ----------
+    fleet_scenario : Path
+        Fleet scenario YAML (base scenario, units, seed, effects with prevalences).
+    output : Path
+        Folder for ``logs/``, ``truth.json`` and ``fleet.yaml``.
+    workers : int
+        Parallel simulations.
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
+    from twin.results import to_json
+    from twin.workflows.fleet import SimulateFleetOptions, run_fleet_simulation
 
     with guard(inputs=[fleet_scenario], outputs=[]):
-        fs = load_fleet_scenario(fleet_scenario)
-        n = fs.units
-        written = [output / "fleet.yaml", output / "truth.json"]
-        # what it writes is checked before any unit runs: never over the fleet scenario or its base
-        check_outputs([fleet_scenario, fs.base_path], written + [None if json_out == "-" else json_out])
-        check_outputs([*written, output / "logs"], [None if json_out == "-" else json_out])
-        logs = (output / "logs").resolve()
-        if any(logs in Path(p).resolve().parents for p in (fleet_scenario, fs.base_path)):
-            raise_twin(f"{output}: its logs/ folder holds the fleet scenario or its base; choose another folder")
-        with tqdm(total=n, desc="units", unit="unit", file=sys.stderr, disable=None) as bar:
-            result = simulate_fleet(fleet_scenario, output, workers, progress=lambda: bar.update(1))
+        opts = SimulateFleetOptions.build(fleet_scenario=fleet_scenario, output=output, workers=workers)
+        with progress_bar("units", "unit") as progress:
+            result = run_fleet_simulation(opts, progress=progress, check_paths=checked_with_json(json_out))
     if json_out != "-":
-        prev = ", ".join(f"{k} {100 * v:.1f} %" for k, v in result["prevalence"].items())
-        typer.echo(f"{result['units']} units ({result['written']} written now) -> {output}/logs; truth apart in "
-                   f"{result['truth']} (true prevalence: {prev})")
-        typer.echo(f"analyse: twin fleet {result['spec']} -o DIR")
-    emit_json(result, json_out)
+        prev = ", ".join(f"{k} {100 * v:.1f} %" for k, v in result.prevalence.items())
+        typer.echo(f"{result.units} units ({result.written} written now) -> {output}/logs; truth apart in "
+                   f"{result.truth} (true prevalence: {prev})")
+        typer.echo(f"analyse: twin fleet {result.spec} -o DIR")
+    emit_json(to_json(result), json_out)

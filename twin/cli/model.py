@@ -11,7 +11,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from twin.cli.common import JsonOpt, app, check_outputs, emit_json, fail
+from twin.cli.common import JsonOpt, app, check_outputs, emit_json, fail, guard
 from twin.errors import TwinError
 
 
@@ -23,7 +23,22 @@ def run(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
     json_out: JsonOpt = None,
 ) -> None:
-    """Simulate a chamber test and write the dataset (HDF5) with its ground truth."""
+    """Simulate a chamber test and write the dataset (HDF5) with its ground truth.
+    \f
+
+    Parameters
+    ----------
+    scenario : Path
+        Scenario YAML.
+    output : Path, optional
+        HDF5 file to write (default: the scenario's ``output.path``, else the scenario with ``.h5``).
+    seed : int, optional
+        Overrides the scenario's seed.
+    quiet : bool
+        No progress bar, no summary line.
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
     from tqdm import tqdm
 
     from twin.model.dataset import write_hdf5
@@ -67,12 +82,30 @@ def run(
 @app.command()
 def schema(
     output: Annotated[Optional[Path], typer.Option("-o", "--output", help="write the schema here")] = None,
+    result: Annotated[Optional[str], typer.Option("--result", help="instead of scenario files: the schema of a command's --json (compare, fleet, fleet-simulate, doe, calibration)")] = None,
     json_out: JsonOpt = None,
 ) -> None:
-    """Print the JSON Schema of scenario files (for editors)."""
-    from twin.model.scenario import json_schema
+    """Print the JSON Schema of scenario files (for editors), or with --result of a command's --json output.
+    \f
 
-    s = json_schema()
+    Parameters
+    ----------
+    output : Path, optional
+        Write the schema here instead of printing it.
+    result : str, optional
+        The command whose ``--json`` schema is wanted (compare, fleet, fleet-simulate, doe, calibration).
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
+    if result is not None:
+        from twin.workflows.schemas import result_schema
+
+        with guard():
+            s = result_schema(result)
+    else:
+        from twin.model.scenario import scenario_json_schema
+
+        s = scenario_json_schema()
     if output is not None:
         from twin.io import atomic_write_text
 
@@ -94,7 +127,26 @@ def test_design(
     chamber_length_m: Annotated[float, typer.Option(min=0, help="chamber length L [m]")] = 0.6,
     json_out: JsonOpt = None,
 ) -> None:
-    """The paper's test-design numbers (eqs. 31-35) beside physically consistent time scales."""
+    """The paper's test-design numbers (eqs. 31-35) beside physically consistent time scales.
+    \f
+
+    Parameters
+    ----------
+    lsb_mg : float, optional
+        Sensitivity, 1 LSB [mg] (default: the IIS328DQ part's at its lowest full scale).
+    tcoff_mg_per_c : float, optional
+        |TCOff| [mg/°C] (default: the IIS328DQ part's).
+    tcso_pct_per_c : float
+        TCSo as printed in eq. (33) [%/°C].
+    chamber_length_m : float
+        Chamber length L [m].
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+
+    References
+    ----------
+    Qi et al. (2022), Micromachines 13, 2156, eqs. (31)–(35).
+    """
     from twin.reporting.paper import design_report
 
     from twin.parts import design_figures
@@ -107,7 +159,18 @@ def test_design(
 
 @app.command()
 def paper(json_out: JsonOpt = None) -> None:
-    """Each derived number of the paper next to what the code computes, with a verdict."""
+    """Each derived number of the paper next to what the code computes, with a verdict.
+    \f
+
+    Parameters
+    ----------
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+
+    References
+    ----------
+    Qi et al. (2022), Micromachines 13, 2156.
+    """
     from twin.reporting.paper import paper_report
 
     report = paper_report()
@@ -128,7 +191,20 @@ def comb(
     t_high_c: Annotated[float, typer.Option(help="sweep end [°C]")] = 50.0,
     json_out: JsonOpt = None,
 ) -> None:
-    """Comb thermal drift under each reading (P, S, H, HE): offset and scale-factor parts."""
+    """Comb thermal drift under each reading (P, S, H, HE): offset and scale-factor parts.
+    \f
+
+    Parameters
+    ----------
+    scenario : Path
+        Scenario YAML (its ``device.geometry``).
+    acceleration_g : float
+        Input acceleration [g].
+    t_low_c, t_high_c : float
+        Sweep start and end [°C].
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
     from twin.reporting.comb import comb_report
     from twin.model.scenario import load_scenario
 
@@ -167,7 +243,30 @@ def render(
     fem: Annotated[bool, typer.Option("--fem", help="draw the solved finite-element package cross-section (package_fem) instead of the comb")] = False,
     json_out: JsonOpt = None,
 ) -> None:
-    """Off-screen image of the comb cell deformed at a temperature, or a sweep as GIF/MP4."""
+    """Off-screen image of the comb cell deformed at a temperature, or a sweep as GIF/MP4.
+    \f
+
+    Parameters
+    ----------
+    scenario : Path
+        Scenario YAML (its ``device.geometry``).
+    output : Path
+        PNG (one temperature) or GIF/MP4 (``sweep``).
+    temperature : float
+        Temperature [°C].
+    sweep : str, optional
+        ``START:STOP:STEP`` [°C].
+    exaggeration : float, optional
+        Displacement scale factor [1] (default: 2000 for the comb, 50 with ``fem``).
+    acceleration_g : float
+        Input acceleration [g].
+    reading : {"P", "S", "H", "HE"}
+        Thermal reading.
+    fem : bool
+        Draw the solved finite-element package cross-section instead of the comb.
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
     if exaggeration is None:
         exaggeration = 50.0 if fem else 2000.0
     from sim.microstructure import READINGS
@@ -224,7 +323,7 @@ def _render_fem(loaded, output: Path, temperature: float, temps, exaggeration: f
     """``twin render --fem``: the scenario's package_fem design, solved, deformed and coloured."""
     from tqdm import tqdm
 
-    from twin.reporting.fem_render import render_package
+    from twin.workflows.render import render_package
 
     try:
         with tqdm(total=len(temps) if temps is not None else 1, desc="render", unit="frame", leave=False,
@@ -246,7 +345,18 @@ def effects(
     plugin: Annotated[Optional[list[str]], typer.Option("--plugin", help="effect module (.py path or module name) to load; runs its code")] = None,
     json_out: JsonOpt = None,
 ) -> None:
-    """List the registered effects: names, families, parameters with units, bounds and sources."""
+    """List the registered effects: names, families, parameters with units, bounds and sources.
+    \f
+
+    Parameters
+    ----------
+    scenario : Path, optional
+        Scenario whose ``twin.plugins`` are loaded first.
+    plugin : list of str, optional
+        Effect modules (``.py`` path or module name) to load; runs their code.
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
     from twin.effects import REGISTRY, load_plugin
 
     try:
@@ -270,7 +380,16 @@ def effects(
 
 @app.command()
 def parts(part: Annotated[Optional[list[str]], typer.Argument(help="part names or part YAML files (default: the built-in parts)")] = None, json_out: JsonOpt = None) -> None:
-    """List the sensor parts: each datasheet figure with its unit, source and whether it was verified (read in a source)."""
+    """List the sensor parts: each datasheet figure with its unit, source and whether it was verified (read in a source).
+    \f
+
+    Parameters
+    ----------
+    part : list of str, optional
+        Part names or part YAML files (default: the built-in parts).
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
     from twin.parts import PARTS, load_part, table_lines
 
     try:
@@ -290,7 +409,18 @@ def export(
     json_out: JsonOpt = None,
 ) -> None:
     """Write a dataset's logged columns as canonical CSV (time_s, temperature_c, output_g, applied_g,
-    run, power_on) - the measurement a lab would have, without the truth."""
+    run, power_on) - the measurement a lab would have, without the truth.
+    \f
+
+    Parameters
+    ----------
+    dataset : Path
+        HDF5 dataset from ``twin run``.
+    output : Path
+        Canonical CSV to write.
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
     from twin.measurement import read_dataset_blind, write_canonical_csv
 
     try:

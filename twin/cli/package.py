@@ -16,13 +16,19 @@ def package(
     json_out: JsonOpt = None,
 ) -> None:
     """Die warpage, TCOff [mg/°C] and TCSo [ppm/°C] of the FE package model, split by material,
-    beside the datasheet figures."""
+    beside the datasheet figures.
+    \f
+
+    Parameters
+    ----------
+    scenario : Path
+        Scenario YAML (its ``package_fem`` effect, else the defaults).
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
     from twin.model.scenario import load_scenario
-    from twin.reporting.package_report import (
-        package_effect,
-        package_prediction,
-        text_lines,
-    )
+    from twin.model.package import package_effect, package_prediction
+    from twin.reporting.package_report import text_lines
 
     with guard(inputs=[scenario], outputs=[None if json_out in (None, "-") else json_out]):
         loaded = load_scenario(scenario)

@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from twin.cli.common import JsonOpt, app, check_outputs, emit_json, fail
+from twin.cli.common import JsonOpt, app, emit_json, fail
 from twin.errors import TwinError
 
 
@@ -22,7 +22,28 @@ def benchmark(
     json_out: JsonOpt = None,
 ) -> None:
     """The paper's compensation benchmark (conventional, Model 1, GA-BPNN, PSO-GA-BPNN, polynomial,
-    our dT/dt extension, any --plugin compensators, the calibrated physics twin) on data whose truth is known."""
+    our dT/dt extension, any --plugin compensators, the calibrated physics twin) on data whose truth is known.
+    \f
+
+    Parameters
+    ----------
+    scenario : Path
+        Scenario YAML: the device and test whose drift is compensated.
+    seeds : int
+        Independent test runs (Tests 1..N).
+    quick : bool
+        1 Hz data, 20 generations, population 20.
+    report : Path, optional
+        Folder for the plots and ``report.html``.
+    plugin : list of str, optional
+        Compensator modules (``.py`` path or module name) to load and benchmark too; runs their code.
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+
+    References
+    ----------
+    Qi et al. (2022), Micromachines 13, 2156: Tables 1 and 2, eqs. (45) and (47).
+    """
     from tqdm import tqdm
 
     from twin.compensation.benchmark import optimizer_benchmark, run_benchmark
@@ -71,37 +92,38 @@ def doe(
     scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="dask scheduler address (default: a local cluster)")] = None,
     json_out: JsonOpt = None,
 ) -> None:
-    """Run a design-of-experiment study; resumes where it stopped (finished runs are kept)."""
-    from tqdm import tqdm
+    """Run a design-of-experiment study; resumes where it stopped (finished runs are kept).
+    \f
 
-    from twin.studies.doe import load_study, plan, run_study, write_outputs
+    Parameters
+    ----------
+    study : Path
+        Study YAML.
+    output : Path
+        Output folder (``runs.jsonl``, the table, ``analysis.json``, plots).
+    workers : int
+        Parallel runs.
+    executor : {"local", "dask"}
+        Where the runs are computed.
+    scheduler : str, optional
+        Address of a running Dask scheduler (default: a local cluster).
+    json_out : str, optional
+        ``--json``: where the result goes (``-``: stdout).
+    """
+    from twin.cli.fleet import checked_with_json, progress_bar
+    from twin.results import to_json
+    from twin.workflows.study import StudyOptions, run_study
 
-    if executor not in ("local", "dask"):
-        fail(f"--executor must be 'local' or 'dask', got {executor!r}")
     try:
-        st, base, folder = load_study(study)
-        own = [output / n for n in ("runs.jsonl", "table.csv", "table.h5", "analysis.json", "main_effects.png",
-                                     "response_surface.png", "sobol.png")]
-        check_outputs([study, folder / st.base, *own], [None if json_out == "-" else json_out])
-        if output.resolve() in (study.resolve(), (folder / st.base).resolve()):
-            raise TwinError(f"-o {output}: the output folder would overwrite an input; choose another path")
-        total = len(plan(st, base))
-        with tqdm(total=total, desc="runs", unit="run", file=sys.stderr, disable=None) as bar:
-            runs = run_study(st, base, output, workers, executor, scheduler, progress=lambda r: bar.update(1))
-        failed = [r for r in runs if r["status"] != "ok"]
-        if runs and len(failed) == len(runs):  # nothing to analyse: say why instead of an empty "success"
-            raise TwinError(f"{study}: all {len(runs)} runs failed (kept in {output / 'runs.jsonl'}); the first: "
-                            f"{failed[0].get('error', '?')}")
-        analysis = write_outputs(st, runs, output)
+        opts = StudyOptions.build(study=study, output=output, workers=workers, executor=executor, scheduler=scheduler)
+        with progress_bar("runs", "run") as progress:
+            result = run_study(opts, progress=progress, check_paths=checked_with_json(json_out))
     except TwinError as exc:
         fail(str(exc))
     except OSError as exc:
         fail(f"{exc.filename or output}: {exc.strerror or exc}")
-    result = {"output": str(output), "runs": len(runs), "planned": total, "failed": analysis["failed"],
-              "main_effects": analysis["main_effects"], "interactions": analysis["interactions"],
-              "sobol": analysis["sobol"]}
     if json_out != "-":
-        typer.echo(f"{len(runs)}/{total} runs ({analysis['failed']} failed) -> {output}/table.csv, analysis.json, plots")
-        for f, per in analysis["main_effects"].items():
-            typer.echo(f"  {f}: " + ", ".join(f"{r} effect {v['effect']:.3g}" for r, v in per.items()))
-    emit_json(result, json_out)
+        typer.echo(f"{result.runs}/{result.planned} runs ({result.failed} failed) -> {output}/table.csv, analysis.json, plots")
+        for f, per in result.main_effects.items():
+            typer.echo(f"  {f}: " + ", ".join(f"{r} effect {v.effect:.3g}" for r, v in per.items()))
+    emit_json(to_json(result), json_out)

@@ -63,7 +63,47 @@ def evaluate_split(loaded, quick, seed, train_m, test_m, noise_test, record_hist
                    compensators: list[Compensator] | None = None, physics_twin: bool = True):
     """MSE of the compensated test output for every compensator (default: every registered one,
     in registration order) and the calibrated physics twin; histories of the population searches;
-    fit times."""
+    fit times.
+
+    Each compensator is trained on ``train_m`` to predict the drift ``output − applied`` [g] (its
+    ΔT reference T0 set to the first training temperature); the MSE is of the compensated test
+    output against the true acceleration, mean((output − prediction − applied)²) [g²].
+
+    Parameters
+    ----------
+    loaded : LoadedScenario
+        The scenario (the physics twin's effects and geometry).
+    quick : bool
+        The short budget (:mod:`twin.compensation.paper_models`).
+    seed : int
+        The test's seed (the networks' and searches' random state).
+    train_m, test_m : Measurement
+        Training and test samples (time [s], temperature [°C], output and applied [g]).
+    noise_test : ndarray
+        The sensor noise of the test samples [g].
+    record_history : bool
+        Also return the population searches' histories.
+    compensators : list of Compensator, optional
+        Default: every registered one.
+    physics_twin : bool
+        Also calibrate and score the physics twin (:func:`twin.compensation.physics_twin.twin_compensation`).
+
+    Returns
+    -------
+    mse : dict of str to float
+        Compensator → test MSE [g²], ``physics_twin`` and ``noise_floor`` (the MSE of the noise
+        alone) included.
+    history : dict of str to dict
+        Population search → ``mse_g2_by_iteration`` [g²] (best training MSE after each
+        iteration, de-standardised), ``fitness_evaluations``, ``bp_iterations``.
+    timings : dict of str to dict
+        Compensator → ``fit_s``, the fit time [s].
+
+    References
+    ----------
+    Qi et al. (2022), Micromachines 13, 2156: Table 1 (test MSE per model), Table 2 (MSE per
+    iteration of the population search).
+    """
     y_train = train_m.output_g - train_m.applied_g
     truth_test = test_m.applied_g
     out, hist, extra = {}, {}, {}
@@ -100,7 +140,27 @@ def _check_split(name: str, train, test, loaded: LoadedScenario, what: str) -> N
 
 
 def optimizer_benchmark(seeds: int = 20) -> dict:
-    """Iterations and evaluations to |z − z*| < 1e-6 on eq. (45) (median and IQR over seeds)."""
+    """Iterations and evaluations to |z − z*| < 1e-6 on eq. (45) (median and IQR over seeds).
+
+    GA (real-valued, and the paper's binary encoding of eq. (39)), PSO and PSO-GA; population 50,
+    at most 300 iterations.
+
+    Parameters
+    ----------
+    seeds : int
+        Random states 0..seeds − 1.
+
+    Returns
+    -------
+    dict
+        Optimiser → ``seeds``, ``reached`` (seeds that reached z*), ``iterations_q25_median_q75``
+        and ``evaluations_q25_median_q75`` (None when no seed reached it); ``paper`` (the paper's
+        iteration counts) and ``z_star`` (the minimum, ``EQ45_MINIMUM`` [1]).
+
+    References
+    ----------
+    Qi et al. (2022), Micromachines 13, 2156, eqs. (39) and (45).
+    """
     out = {}
     for name, cls, kw in (("GA", GA, {}), ("GA_binary", GA, {"encoding": "binary"}), ("PSO", PSO, {}), ("PSO-GA", PSOGA, {})):
         its, evals, hits = [], [], 0
@@ -120,7 +180,33 @@ def optimizer_benchmark(seeds: int = 20) -> dict:
 
 def run_benchmark(loaded: LoadedScenario, seeds: int = 3, quick: bool = False, progress=None) -> dict:
     """Tests 1..``seeds``, the extrapolation and the ramp-rate split (on Test 1's device); raises
-    :class:`BenchmarkError` when the scenario cannot be split that way."""
+    :class:`BenchmarkError` when the scenario cannot be split that way.
+
+    Parameters
+    ----------
+    loaded : LoadedScenario
+        The scenario; Test k is its seed + k − 1.
+    seeds : int
+        Independent tests.
+    quick : bool
+        1 Hz data and the short training budget.
+    progress : callable, optional
+        ``progress(message)``, called before each stage.
+
+    Returns
+    -------
+    dict
+        ``twin benchmark --json`` (without ``optimizers``): ``table1`` (per compensator the test
+        MSEs [g²], their mean and standard deviation, the ratio to the noise floor [1] and, but for
+        the conventional model, Q [%] and whether it improves on it), ``table2`` (MSE [g²] at
+        iterations 14..70 of each population search), ``noise_floor_mse`` [g²], the
+        ``extrapolation_split`` and ``ramp_rate_split`` MSEs [g²], ``verdicts`` and ``timings_s``.
+
+    References
+    ----------
+    Qi et al. (2022), Micromachines 13, 2156: Tables 1 and 2; Q = |MSE − MSE_conventional| /
+    MSE_conventional × 100 %, eq. (47).
+    """
     tick = progress or (lambda msg: None)
     rate = 1.0 if quick else None
     tests, table2, timings, extrap, ramp = [], {}, {}, [], []
@@ -205,7 +291,22 @@ TIE_PERCENT = 0.1
 
 def verdict(a: str, b: str, mean: dict, la: str, lb: str) -> str:
     """One sentence comparing the mean MSEs of compensators ``a`` and ``b`` (labels ``la``, ``lb``):
-    level below :data:`TIE_PERCENT`, else which beats which and by how much."""
+    level below :data:`TIE_PERCENT`, else which beats which and by how much.
+
+    Parameters
+    ----------
+    a, b : str
+        Compensator keys of ``mean``.
+    mean : dict of str to float
+        Compensator → mean test MSE [g²].
+    la, lb : str
+        Their labels in the sentence.
+
+    Returns
+    -------
+    str
+        The sentence; the difference is (MSE_b − MSE_a) / MSE_b [%].
+    """
     d = (mean[b] - mean[a]) / mean[b] * 100
     if abs(d) < TIE_PERCENT:
         return (f"{la} and {lb} are level: MSE {mean[a]:.3e} vs {mean[b]:.3e} g² ({abs(d):.2f} % apart, "

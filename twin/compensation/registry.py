@@ -25,14 +25,43 @@ class CompensatorError(TwinError):
 
 @dataclass(frozen=True)
 class Compensator:
-    """A registered compensator: its name (the benchmark's key), a label for people, its factory."""
+    """A registered compensator: its name (the benchmark's key), a label for people, its factory.
+
+    Attributes
+    ----------
+    name : str
+        The benchmark's key (an identifier).
+    label : str
+        For people (tables, report).
+    factory : callable
+        ``factory(quick, seed) -> (FeatureSet, estimator)`` (module docstring).
+    """
 
     name: str
     label: str
     factory: Callable[[bool, int], tuple]
 
     def build(self, quick: bool, seed: int) -> tuple:
-        """``(features, estimator)`` for one test, checked."""
+        """``(features, estimator)`` for one test, checked.
+
+        Parameters
+        ----------
+        quick : bool
+            The benchmark's short budget.
+        seed : int
+            The test's seed.
+
+        Returns
+        -------
+        tuple
+            A :class:`fitting.FeatureSet` and an unfitted estimator with ``fit`` and ``predict``
+            (the drift ``output − applied`` [g]).
+
+        Raises
+        ------
+        CompensatorError
+            The factory returned something else.
+        """
         from fitting import FeatureSet
 
         made = self.factory(quick, seed)
@@ -44,6 +73,13 @@ class Compensator:
         return made
 
     def describe(self) -> dict:
+        """The compensator as plain data.
+
+        Returns
+        -------
+        dict
+            ``name``, ``label`` and the ``module`` of its factory.
+        """
         return {"name": self.name, "label": self.label, "module": self.factory.__module__}
 
 
@@ -52,7 +88,26 @@ COMPENSATORS = Registry("compensator", CompensatorError)
 
 
 def register_compensator(name: str, label: str):
-    """Decorator: register ``factory(quick, seed) -> (FeatureSet, estimator)`` under ``name``."""
+    """Decorator: register ``factory(quick, seed) -> (FeatureSet, estimator)`` under ``name``.
+
+    Parameters
+    ----------
+    name : str
+        An identifier, the benchmark's key; not ``physics_twin`` or ``noise_floor`` (reserved).
+    label : str
+        For people (tables, report).
+
+    Returns
+    -------
+    callable
+        The decorator; it returns the factory unchanged.
+
+    Raises
+    ------
+    CompensatorError
+        A name that is not an identifier or is reserved; when applied, a name another function
+        registered.
+    """
     if not (isinstance(name, str) and name.isidentifier()):
         raise CompensatorError(f"a compensator name must be an identifier, got {name!r}")
     if name in ("physics_twin", "noise_floor"):
@@ -69,6 +124,11 @@ get_compensator = COMPENSATORS.lookup
 load_plugin = COMPENSATORS.load_plugin
 
 
-# The built-in compensators, registered in the benchmark's order (after the names above exist:
-# paper_models imports register_compensator from this module).
-from twin.compensation import paper_models  # noqa: E402, F401
+def _register_builtins() -> None:
+    from twin.compensation.paper_models import BUILTIN
+
+    for name, label, factory in BUILTIN:
+        register_compensator(name, label)(factory)
+
+
+_register_builtins()  # the paper's compensators first: the benchmark's order

@@ -2,25 +2,43 @@
 
 from __future__ import annotations
 
-import html
-import json
 from pathlib import Path
 
-from twin.io import atomic_write_text
+from twin.reporting.page import Page
 from twin.reporting.plots import png_base64
 from twin.reporting.study_plots import benchmark_displays
 
 
 def write_benchmark_report(directory: Path, result: dict) -> Path:
+    """Write ``report.html``: the verdicts first, then the paper's tables and the plots.
+
+    Parameters
+    ----------
+    directory : Path
+    result : dict
+        The benchmark's result (``twin benchmark --json``).
+
+    Returns
+    -------
+    Path
+    """
     import matplotlib
 
     matplotlib.use("Agg")
-
-    directory.mkdir(parents=True, exist_ok=True)
-    figs = [(disp.title, png_base64(disp.plot())) for disp in benchmark_displays(result)]
-    body = "".join(f"<h3>{html.escape(t)}</h3><img src='data:image/png;base64,{b}'>" for t, b in figs)
-    verdicts = "".join(f"<li>{html.escape(v)}</li>" for v in result["verdicts"])
-    page = (f"<!doctype html><html><head><meta charset='utf-8'><title>twin benchmark</title></head><body "
-            f"style='font-family:sans-serif;max-width:1000px;margin:auto'><h1>Compensation benchmark</h1><ul>{verdicts}</ul>"
-            f"{body}<h2>Data</h2><pre>{html.escape(json.dumps(result, indent=1)[:20000])}</pre></body></html>")
-    return atomic_write_text(directory / "report.html", page)
+    page = Page("Compensation benchmark", result["verdicts"])
+    page.text(f"{result['tests']} tests{' (quick budget)' if result['quick'] else ''}; noise-only MSE "
+              f"{result['noise_floor_mse']:.3e} g² (what a perfect compensation leaves).")
+    page.heading("Table 1: test MSE of each compensator")
+    page.table([[r["model"], f"{r['mse_mean']:.3e}", f"{r['mse_std']:.2e}", f"{r['ratio_mean']:.3f}",
+                 "-" if "Q_percent" not in r else f"{sum(r['Q_percent']) / len(r['Q_percent']):.1f} %"]
+                for r in result["table1"]],
+               ["compensator", "MSE mean [g²]", "MSE std [g²]", "MSE / noise-only MSE", "Q vs conventional"])
+    if result["table2"]:
+        its = list(next(iter(result["table2"].values()))["mse_g2_at_iteration"])
+        page.heading("Table 2: MSE by iteration of the population search")
+        page.table([[name] + [f"{t['mse_g2_at_iteration'][i]['mean']:.3e}" for i in its]
+                    for name, t in result["table2"].items()], ["search"] + [f"iteration {i} [g²]" for i in its])
+    page.heading("Plots")
+    for disp in benchmark_displays(result):
+        page.figure(png_base64(disp.plot()), disp.title)
+    return page.write(directory / "report.html")

@@ -14,7 +14,22 @@ import numpy as np
 
 
 def sample_cycles(program, time_s: np.ndarray, run_index: np.ndarray | None = None) -> np.ndarray:
-    """Cycle (0-based) of the program segment each sample falls in, by its time within its run."""
+    """Cycle (0-based) of the program segment each sample falls in, by its time within its run.
+
+    Parameters
+    ----------
+    program : ChamberProgram
+        The test's compiled program.
+    time_s : ndarray
+        Sample times [s].
+    run_index : ndarray, optional
+        Run of each sample; a run's time starts at its first sample (default: one run).
+
+    Returns
+    -------
+    ndarray of int
+        The cycle of each sample.
+    """
     t = np.asarray(time_s, float)
     if run_index is not None and t.size:
         runs = np.asarray(run_index, np.int64)
@@ -26,7 +41,22 @@ def sample_cycles(program, time_s: np.ndarray, run_index: np.ndarray | None = No
 
 
 def last_cycle_test(program, time_s: np.ndarray, run_index: np.ndarray | None = None) -> np.ndarray:
-    """Boolean test mask: the last cycle of every run (the last third when there is one cycle)."""
+    """Boolean test mask: the last cycle of every run (the last third when there is one cycle).
+
+    Parameters
+    ----------
+    program : ChamberProgram
+        The test's compiled program.
+    time_s : ndarray
+        Sample times [s].
+    run_index : ndarray, optional
+        Run of each sample (default: one run).
+
+    Returns
+    -------
+    ndarray of bool
+        True for a test sample.
+    """
     cycle = sample_cycles(program, time_s, run_index)
     last = cycle.max() if cycle.size else 0
     if last > 0:
@@ -35,6 +65,18 @@ def last_cycle_test(program, time_s: np.ndarray, run_index: np.ndarray | None = 
 
 
 def subset(m, mask: np.ndarray):
-    """The samples of measurement ``m`` where ``mask`` is true."""
+    """The samples of measurement ``m`` where ``mask`` is true.
+
+    Parameters
+    ----------
+    m : Measurement
+    mask : ndarray of bool
+        One per sample.
+
+    Returns
+    -------
+    Measurement
+        A copy with those samples only.
+    """
     return replace(m, time_s=m.time_s[mask], temperature_c=m.temperature_c[mask], output_g=m.output_g[mask],
                    applied_g=m.applied_g[mask], run_index=m.run_index[mask], power_on=m.power_on[mask])

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.arrays import run_slices
-from twin.diagnosis.calibrate import Calibration
-from twin.diagnosis.language import (
+from twin.estimation.fit import TwinFit
+from twin.diagnosis.remedies import (
     OFFSET_ALIAS_REMEDY,
     ORIENTATION_NOT_LOGGED,
     REMEDY,
@@ -21,35 +21,48 @@ from twin.diagnosis.language import (
     absorbed_reason,
     confounding_remedy,
 )
-from twin.diagnosis.linalg import closest_column, novelty, orthonormal_basis
-from twin.diagnosis.problem import DiagnosisConfig, Problem
+from twin.estimation.linalg import closest_column, novelty, orthonormal_basis
+from twin.estimation.problem import DiagnosisConfig, Problem
+from twin.diagnosis.records import PER_RUN_OFFSETS, Alias, ModelAliased, Untestable
 from twin.diagnosis.screen import CandidateResult, candidate_names, is_testable
 from twin.effects import get_effect
 
 
 @dataclass
 class Audit:
-    """What the data cannot test or separate; entries are the JSON's ``untestable`` and ``aliases``."""
+    """What the data cannot test or separate; entries are the JSON's ``untestable`` and ``aliases``
+    (docs/diagnosis.md §1 step 0).
 
-    untestable: list[dict]
-    aliases: list[dict]
-    model_aliased: list[dict]  # model amplitudes the data cannot fix
-    confounded: list[dict]  # entries confounding temperature with the per-run offsets
+    Attributes
+    ----------
+    untestable : list of Untestable
+        Candidates the data cannot test, each with the test step that would.
+    aliases : list of Alias
+        Groups of candidates alike in shape once the model is projected out.
+    model_aliased : list of ModelAliased
+        Model amplitudes the data cannot fix.
+    confounded : bool
+        Temperature is confounded with the per-run offsets.
+    """
+
+    untestable: list[Untestable]
+    aliases: list[Alias]
+    model_aliased: list[ModelAliased]  # model amplitudes the data cannot fix
+    confounded: bool  # temperature confounded with the per-run offsets
 
 
-def untestable_effects(problem: Problem, cal: Calibration, first: list[CandidateResult]) -> list[dict]:
+def untestable_effects(problem: Problem, cal: TwinFit, first: list[CandidateResult]) -> list[Untestable]:
     """Candidates the data cannot test: unidentifiable, absorbed, or needing the orientation.
 
     Parameters
     ----------
-    problem, cal : Problem, Calibration
+    problem, cal : Problem, TwinFit
     first : list of CandidateResult
         The first screening, whose novelty says what the calibrated model already absorbs.
 
     Returns
     -------
-    list of dict
-        ``effect``, ``family``, ``reason``, ``remedy``.
+    list of Untestable
     """
     cfg = problem.config
     untestable = []
@@ -57,30 +70,27 @@ def untestable_effects(problem: Problem, cal: Calibration, first: list[Candidate
         cls = get_effect(c.effect)
         if not cls.identifiable or c.novelty < cfg.alias_novelty:
             why = UNIDENTIFIABLE if not cls.identifiable else absorbed_reason(c.novelty)
-            untestable.append({"effect": c.effect, "family": c.family, "reason": why,
-                               "remedy": REMEDY.get(c.family, "")})
+            untestable.append(Untestable(c.effect, c.family, why, REMEDY.get(c.family, "")))
     if not problem.m.applied_known:
         for n in candidate_names(cal.composition):
             if get_effect(n).family == "scale_factor":
-                untestable.append({"effect": n, "family": "scale_factor", "reason": ORIENTATION_NOT_LOGGED,
-                                   "remedy": REMEDY["scale_factor"]})
+                untestable.append(Untestable(n, "scale_factor", ORIENTATION_NOT_LOGGED, REMEDY["scale_factor"]))
     return untestable
 
 
-def alias_groups(problem: Problem, cal: Calibration, first: list[CandidateResult]) -> list[dict]:
+def alias_groups(problem: Problem, cal: TwinFit, first: list[CandidateResult]) -> list[Alias]:
     """Testable candidates alike in shape once the model is projected out (correlation above
     ``alias_correlation``), merged into groups.
 
     Parameters
     ----------
     problem : Problem
-    cal : Calibration
+    cal : TwinFit
     first : list of CandidateResult
 
     Returns
     -------
-    list of dict
-        ``effects``, ``families``, ``remedy``.
+    list of Alias
     """
     cfg = problem.config
     testable = [c for c in first if is_testable(c, cfg)]
@@ -106,25 +116,23 @@ def alias_groups(problem: Problem, cal: Calibration, first: list[CandidateResult
                     groups.append({a, b})
     aliases = []
     for g in groups:
-        fams = sorted({get_effect(e).family for e in g})
-        aliases.append({"effects": sorted(g), "families": fams,
-                        "remedy": "; ".join(REMEDY.get(f, "") for f in fams if REMEDY.get(f))})
+        fams = tuple(sorted({get_effect(e).family for e in g}))
+        aliases.append(Alias(tuple(sorted(g)), fams, "; ".join(REMEDY.get(f, "") for f in fams if REMEDY.get(f))))
     return aliases
 
 
-def model_aliased_amplitudes(problem: Problem, cal: Calibration, cfg: DiagnosisConfig) -> list[dict]:
+def model_aliased_amplitudes(problem: Problem, cal: TwinFit, cfg: DiagnosisConfig) -> list[ModelAliased]:
     """Model amplitudes this data cannot estimate (aliased with offsets or each other).
 
     Parameters
     ----------
     problem : Problem
-    cal : Calibration
+    cal : TwinFit
     cfg : DiagnosisConfig
 
     Returns
     -------
-    list of dict
-        ``effect``, ``parameter``, ``novelty``, ``aliased_with``.
+    list of ModelAliased
     """
     A = problem.avg(cal.X_full)
     nn = problem.nuisance.shape[1]
@@ -134,12 +142,11 @@ def model_aliased_amplitudes(problem: Problem, cal: Calibration, cfg: DiagnosisC
         others = [k for k in range(A.shape[1]) if k != nn + j]
         nov = novelty(A[:, [nn + j]], orthonormal_basis(A[:, others]))
         if nov < cfg.alias_novelty:
-            out.append({"effect": eff, "parameter": amp, "novelty": nov,
-                        "aliased_with": closest_column(A, nn + j, others, labels)})
+            out.append(ModelAliased(eff, amp, nov, closest_column(A, nn + j, others, labels)))
     return out
 
 
-def orientation_temperature_confounding(problem: Problem) -> dict | None:
+def orientation_temperature_confounding(problem: Problem) -> Alias | None:
     """The alias entry when each run sits at a nearly constant temperature and the orientation
     is not logged: the per-run offsets then absorb both.
 
@@ -149,7 +156,7 @@ def orientation_temperature_confounding(problem: Problem) -> dict | None:
 
     Returns
     -------
-    dict or None
+    Alias or None
     """
     m = problem.m
     if m.runs > 1 and not m.applied_known:
@@ -158,17 +165,17 @@ def orientation_temperature_confounding(problem: Problem) -> dict | None:
         medians = [np.median(temp[s]) for s in run_slices(m.run_index)]
         between = max(medians) - min(medians)
         if between > 0 and max(spans) < 0.25 * between:
-            return {"effects": ["orientation", "static_bias_tc"], "families": ["bias_tc"],
-                    "aliased_with": "per-run offsets", "remedy": confounding_remedy(max(spans), between)}
+            return Alias(("orientation", "static_bias_tc"), ("bias_tc",), confounding_remedy(max(spans), between),
+                         PER_RUN_OFFSETS)
     return None
 
 
-def audit(problem: Problem, cal: Calibration, first: list[CandidateResult]) -> Audit:
+def audit(problem: Problem, cal: TwinFit, first: list[CandidateResult]) -> Audit:
     """Aliases among candidates, untestable effects, model amplitudes the data cannot fix.
 
     Parameters
     ----------
-    problem, cal : Problem, Calibration
+    problem, cal : Problem, TwinFit
     first : list of CandidateResult
         The first screening (every candidate, before forward selection).
 
@@ -180,19 +187,17 @@ def audit(problem: Problem, cal: Calibration, first: list[CandidateResult]) -> A
     cfg = problem.config
     untestable = untestable_effects(problem, cal, first)
     aliases = alias_groups(problem, cal, first)
-    model_aliased = [{"effect": e, "parameter": a, "novelty": 0.0, "aliased_with": partner, "pinned": True}
-                     for (e, a), partner in cal.pinned]
+    model_aliased = [ModelAliased(e, a, 0.0, partner, pinned=True) for (e, a), partner in cal.pinned]
     for a in model_aliased_amplitudes(problem, cal, cfg):
-        if all(a["effect"] != b["effect"] for b in model_aliased):
+        if all(a.effect != b.effect for b in model_aliased):
             model_aliased.append(a)
-    confounded = [a for a in model_aliased if a["aliased_with"].startswith("offset_run")]
+    confounded = any(a.with_run_offsets for a in model_aliased)
     entry = orientation_temperature_confounding(problem)
     if entry is not None:
         aliases.insert(0, entry)
-        confounded.append(entry)
-    for a in {a["effect"]: a for a in reversed(model_aliased)}.values():
-        aliases.append({"effects": [a["effect"]], "families": [get_effect(a["effect"]).family],
-                        "aliased_with": a["aliased_with"],
-                        "remedy": OFFSET_ALIAS_REMEDY
-                        if a["aliased_with"].startswith("offset_run") else REMEDY.get(get_effect(a["effect"]).family, "")})
+        confounded = True
+    for a in {a.effect: a for a in reversed(model_aliased)}.values():
+        family = get_effect(a.effect).family
+        aliases.append(Alias((a.effect,), (family,), OFFSET_ALIAS_REMEDY if a.with_run_offsets else REMEDY.get(family, ""),
+                             a.aliased_with))
     return Audit(untestable, aliases, model_aliased, confounded)

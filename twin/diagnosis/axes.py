@@ -17,10 +17,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twin.diagnosis.compare import compare_measurement
+from twin.diagnosis.compare import diagnose_measurement
+from twin.diagnosis.diagnose import Diagnosis
 from twin.errors import TwinError
 from twin.measurement import ImuLog, Measurement, check, concatenate
-from twin.measurement.quality import LogQuality, QualityRow, assess_log, assess_measurement
+from twin.measurement.log_quality import LogQuality
+from twin.measurement.quality import assess_log, assess_measurement, face_gravity
+from twin.measurement.quality_records import QualityRow
 from twin.model.scenario import LoadedScenario
 
 # a static stretch whose mean departs from the --applied-g value by more than this reads another orientation
@@ -30,14 +33,45 @@ APPLIED_TOLERANCE_G = 0.1
 SHARED_TAU_SPREAD = 0.15
 
 
+def tau_spread(taus: list[float]) -> float:
+    """Relative spread of per-axis time constants: (max − min) / median [1].
+
+    Parameters
+    ----------
+    taus : list of float
+        One τ per axis [s].
+
+    Returns
+    -------
+    float
+        One thermal path when at most ``SHARED_TAU_SPREAD``.
+    """
+    return float((max(taus) - min(taus)) / np.median(taus))
+
+
 class OrientationError(TwinError):
     """An axis whose applied acceleration is contradicted by the data or cannot be known."""
 
 
 @dataclass(frozen=True)
 class AppliedStretch:
-    """A static stretch of one axis: its time span, rows, face label, mean reading and the g applied
-    (None: unknown, or excluded as ``reason`` says)."""
+    """A static stretch of one axis: its time span, rows, face label, mean reading and the g applied.
+
+    Attributes
+    ----------
+    from_s, to_s : float
+        Start and end of the stretch [s].
+    rows : int
+        Samples in the stretch.
+    label : str
+        Face label (``+x`` … ``-z``, ``tilted`` or ``""``).
+    measured_g : float
+        Mean reading of the axis [g].
+    applied_g : float or None
+        Gravity applied [g]; None: unknown, or excluded as ``reason`` says.
+    reason : str
+        Where ``applied_g`` came from, or why the stretch was excluded.
+    """
 
     from_s: float
     to_s: float
@@ -52,7 +86,18 @@ class AppliedStretch:
 class AxisRows:
     """The rows of one axis of one log that enter the comparison and the gravity applied on each.
 
-    ``applied_g`` is per row [g] (NaN where not kept), or None when the orientation is unknown.
+    Attributes
+    ----------
+    axis : str
+        ``x``, ``y``, ``z`` (or ``output`` for a single-axis measurement).
+    keep : numpy.ndarray of bool
+        Per usable static row: compared.
+    applied_g : numpy.ndarray or None
+        Per row [g] (NaN where not kept), or None when the orientation is unknown.
+    stretches : tuple of AppliedStretch
+        Each static stretch and the g applied on it.
+    excluded : tuple of QualityRow
+        The log's rows not used, with the reason.
     """
 
     axis: str
@@ -86,6 +131,11 @@ def axis_rows(quality: LogQuality, axis: str, applied_g: float | str | None, col
     OrientationError
         A given value that a static stretch contradicts by more than ``tolerance_g``; no
         orientation given and none estimable; no usable static stretch at all.
+
+    Returns
+    -------
+    AxisRows
+        The rows kept and the applied g [g] per row and per stretch.
     """
     col = "xyz".index(axis) if column is None else column
     where = f"{quality.where} {axis}"
@@ -111,7 +161,7 @@ def axis_rows(quality: LogQuality, axis: str, applied_g: float | str | None, col
         elif label in ("", "tilted"):
             value, reason = None, f"excluded: gravity off every face ({label or 'one axis'}), orientation not given"
         else:
-            value, reason = float(_face_projection(label, col)), f"on the {label} face"
+            value, reason = float(face_gravity(label)[col]), f"on the {label} face"
         use = value is not None or not known
         keep[s.start:s.stop] = use
         applied[s.start:s.stop] = np.nan if value is None else value
@@ -124,13 +174,21 @@ def axis_rows(quality: LogQuality, axis: str, applied_g: float | str | None, col
     return AxisRows(axis, keep, applied if known else None, tuple(out), excluded)
 
 
-def _face_projection(label: str, col: int) -> float:
-    """Gravity along axis ``col`` for a board on the face ``label`` (``"-z"`` → (0, 0, −1))."""
-    return (1.0 if label[0] == "+" else -1.0) if "xyz".index(label[1]) == col else 0.0
-
-
 def axis_measurement(log: ImuLog, rows: AxisRows) -> Measurement:
-    """The kept rows of one axis as a :class:`Measurement` (one run), with a note of what went."""
+    """The kept rows of one axis as a :class:`Measurement` (one run), with a note of what went.
+
+    Parameters
+    ----------
+    log : ImuLog
+        Time [s], temperature [°C], acceleration [g].
+    rows : AxisRows
+        The rows to keep and their applied g [g].
+
+    Returns
+    -------
+    Measurement
+        The axis' output [g] on the kept rows, checked.
+    """
     k = rows.keep
     col = log.accel_g[:, "xyz".index(rows.axis)]
     known = rows.applied_g is not None
@@ -148,7 +206,19 @@ def axis_measurement(log: ImuLog, rows: AxisRows) -> Measurement:
 
 def check_applied_measurement(m: Measurement, applied_g: float, tolerance_g: float = APPLIED_TOLERANCE_G) -> None:
     """Refuse a single-axis ``--applied-g`` that a static stretch of ``m`` contradicts (see :func:`axis_rows`);
-    a file logging its own applied column is left to that column."""
+    a file logging its own applied column is left to that column.
+
+    Parameters
+    ----------
+    m : Measurement
+    applied_g, tolerance_g : float
+        The value given and the largest departure of a stretch's mean from it [g].
+
+    Raises
+    ------
+    OrientationError
+        A static stretch reads otherwise.
+    """
     if m.applied_known and np.all(m.applied_g == applied_g):
         quality = assess_measurement(m)
         if quality.static_stretches():
@@ -157,64 +227,61 @@ def check_applied_measurement(m: Measurement, applied_g: float, tolerance_g: flo
 
 @dataclass(frozen=True, eq=False)
 class AxisDiagnoses:
-    """Per-axis diagnoses of one IMU, with the orientation used, the rows compared and the joint finding."""
+    """Per-axis diagnoses of one IMU, with the orientation used and the rows compared.
+
+    Attributes
+    ----------
+    instance : int
+    device_id : int or None
+    diagnoses : dict of str to Diagnosis
+    applied_g : dict of str to float or str
+        Axis → g applied, ``unknown`` or ``per stretch``.
+    rows : dict of str to tuple of AxisRows
+        Axis → the rows of each log compared.
+    qualities : tuple of LogQuality
+        Each log's quality assessment.
+    """
 
     instance: int
     device_id: int | None
-    diagnoses: dict  # axis → Diagnosis
-    results: dict  # axis → JSON result
-    applied_g: dict  # axis → g, "unknown" or "per stretch"
-    finding: str
-    rows: dict  # axis → tuple of AxisRows, one per log
+    diagnoses: dict[str, Diagnosis]
+    applied_g: dict[str, float | str]
+    rows: dict[str, tuple[AxisRows, ...]]
     qualities: tuple[LogQuality, ...] = ()
-
-    def json(self) -> dict:
-        import json
-
-        stretches = {a: [vars(s) for r in rows for s in r.stretches] for a, rows in self.rows.items()}
-        return {"instance": self.instance, "device_id": self.device_id,
-                "orientation_applied_g": self.applied_g, "orientation_per_stretch": stretches,
-                "log_quality": [json.loads(q.to_json()) for q in self.qualities],
-                "finding": self.finding, "axes": self.results}
-
-
-def joint_finding(results: dict) -> str:
-    """One sentence per effect named on more than one axis, with its τ per axis and whether they agree."""
-    named: dict[str, list[tuple[str, dict]]] = {}
-    for axis, r in results.items():
-        for c in r["candidates"]:
-            if c["effect"] in r["selected"][:1]:
-                named.setdefault(c["effect"], []).append((axis, c.get("parameters_refined") or c["parameters"]))
-    parts = []
-    for effect, hits in named.items():
-        axes = ", ".join(a for a, _ in hits)
-        taus = [p["tau_s"] for _, p in hits if "tau_s" in p]
-        if len(hits) > 1 and len(taus) == len(hits):
-            spread = (max(taus) - min(taus)) / np.median(taus)
-            agree = ("consistent with one thermal path" if spread <= SHARED_TAU_SPREAD else
-                     f"they differ by {100 * spread:.0f} %: not one thermal path, or the data cannot fix τ")
-            what = "the die lags the sensor" if effect == "thermal_lag" else f"{effect}, τ"
-            parts.append(f"{what} by ≈{' / '.join(f'{t:.0f}' for t in taus)} s on {axes} ({agree}).")
-        else:
-            parts.append(f"{effect} named on {axes}.")
-    return " ".join(parts) or "No effect is named on any axis."
 
 
 def compare_imu(loaded: LoadedScenario, logs: list[ImuLog], axes: list[str], with_effects: list[str],
                 average_s: float = 10.0, applied_g: float | str | None = None) -> AxisDiagnoses:
     """Compare each axis of one IMU (its logs = runs) with the twin, on the usable static rows.
 
-    ``applied_g``: a number for every axis (refused where a static stretch reads otherwise),
-    ``"unknown"``, or None to take each static stretch's orientation from its face (:func:`axis_rows`).
+    Parameters
+    ----------
+    loaded : LoadedScenario
+        The scenario's twin.
+    logs : list of ImuLog
+        The IMU's logs, one run each.
+    axes : list of str
+        Axes to compare (``x``, ``y``, ``z``).
+    with_effects : list of str
+        Library effects added to the twin.
+    average_s : float
+        Screening block length [s].
+    applied_g : float, "unknown" or None
+        A number for every axis [g] (refused where a static stretch reads otherwise), ``"unknown"``,
+        or None to take each static stretch's orientation from its face (:func:`axis_rows`).
+
+    Returns
+    -------
+    AxisDiagnoses
+        One diagnosis per axis, the orientation used and the rows compared.
     """
     qualities = tuple(assess_log(log) for log in logs)
-    diagnoses, results, applied, used = {}, {}, {}, {}
+    diagnoses, applied, used = {}, {}, {}
     for a in axes:
         used[a] = tuple(axis_rows(q, a, applied_g) for q in qualities)
         parts = [axis_measurement(log, r) for log, r in zip(logs, used[a])]
         m = concatenate(parts) if len(parts) > 1 else parts[0]
         values = {s.applied_g for r in used[a] for s in r.stretches if s.applied_g is not None}
         applied[a] = ("unknown" if not m.applied_known else values.pop() if len(values) == 1 else "per stretch")
-        diagnoses[a], results[a] = compare_measurement(loaded, m, with_effects, average_s)
-    return AxisDiagnoses(logs[0].instance, logs[0].device_id, diagnoses, results, applied, joint_finding(results),
-                         used, qualities)
+        diagnoses[a] = diagnose_measurement(loaded, m, with_effects, average_s)
+    return AxisDiagnoses(logs[0].instance, logs[0].device_id, diagnoses, applied, used, qualities)

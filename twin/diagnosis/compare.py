@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from sim.sensor import logger_white_sigma_g
-from twin.diagnosis.contract import result_json
-from twin.diagnosis.decimate import decimated_problem, restore_sample_rate
-from twin.diagnosis.diagnose import diagnose
-from twin.diagnosis.problem import DiagnosisConfig
+from twin.diagnosis.sample_rate import decimated_problem, restore_sample_rate
+from twin.diagnosis.diagnose import Diagnosis, diagnose
+from twin.estimation.problem import DiagnosisConfig
 from twin.effects import Composition, get_effect
 from twin.errors import ModelError, TwinError
 from twin.measurement import Measurement
@@ -16,8 +15,20 @@ from twin.model.scenario import LoadedScenario
 
 
 def sensor_noise_floor_g(loaded: LoadedScenario, rate_hz: float) -> float | None:
-    """Per-sample noise σ of the scenario's sensor at the measurement's rate: white, quantisation
-    (LSB/√12) and bias instability in quadrature."""
+    """Per-sample noise σ of the scenario's sensor at the measurement's rate [g]: white,
+    quantisation (LSB/√12) and bias instability in quadrature.
+
+    Parameters
+    ----------
+    loaded : LoadedScenario
+    rate_hz : float
+        Sample rate of the measurement [Hz].
+
+    Returns
+    -------
+    float or None
+        None when the sensor model has no noise figure at that rate.
+    """
     sensor = loaded.sensor()
     tp = loaded.scenario.test_plan
     try:
@@ -29,7 +40,18 @@ def sensor_noise_floor_g(loaded: LoadedScenario, rate_hz: float) -> float | None
 
 
 def twin_model(loaded: LoadedScenario, with_effects: list[str]) -> Composition:
-    """The scenario's ``twin.effects`` plus ``--with-effect`` names (never ``device.effects``)."""
+    """The scenario's ``twin.effects`` plus ``--with-effect`` names (never ``device.effects``).
+
+    Parameters
+    ----------
+    loaded : LoadedScenario
+    with_effects : list of str
+        Registered effect names to add.
+
+    Returns
+    -------
+    Composition
+    """
     for name in with_effects:
         try:
             get_effect(name)
@@ -38,18 +60,28 @@ def twin_model(loaded: LoadedScenario, with_effects: list[str]) -> Composition:
     return loaded.twin_composition().added(with_effects, {"geometry": loaded.geometry()})
 
 
-def compare_measurement(loaded: LoadedScenario, m: Measurement, with_effects: list[str], average_s: float = 10.0):
+def diagnose_measurement(loaded: LoadedScenario, m: Measurement, with_effects: list[str],
+                         average_s: float = 10.0) -> Diagnosis:
+    """The scenario's twin (plus ``with_effects``) diagnosed blind against one single-axis measurement.
+
+    Parameters
+    ----------
+    loaded : LoadedScenario
+        Its ``twin``, ``device.sensor`` and ``test_plan`` are read; never ``device.effects``.
+    m : Measurement
+    with_effects : list of str
+        Registered effects added to the twin.
+    average_s : float
+        Screening block length [s].
+
+    Returns
+    -------
+    Diagnosis
+        A :class:`~twin.diagnosis.sample_rate.SampleRateDiagnosis` when a fast log was diagnosed on means.
+    """
     cfg = DiagnosisConfig(average_s=average_s)
     rate = m.sample_rate_hz
     # a fast log is diagnosed on means at 10 Hz; per-sample figures come from the full rate
     problem, blocks, k = decimated_problem(m, rate, cfg)
     d = diagnose(problem, twin_model(loaded, with_effects), sensor_noise_floor_g(loaded, rate))
-    if blocks is not None:
-        d = restore_sample_rate(d, m, blocks, k)
-    result = result_json(d)
-    result["measurement"] = {"files": m.sources, "bad_rows_skipped": m.bad_rows_skipped, "notes": m.notes,
-                             "applied_known": m.applied_known}
-    if blocks is not None:
-        result["samples"], result["sample_rate_hz"] = len(m), rate
-        result["measurement"]["diagnosed_on_means_of"] = k
-    return d, result
+    return d if blocks is None else restore_sample_rate(d, m, blocks, k)

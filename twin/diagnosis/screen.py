@@ -15,10 +15,10 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import minimize_scalar
 
-from twin.diagnosis.calibrate import Calibration
-from twin.diagnosis.linalg import heldout_errors, novelty, orthonormal_basis
-from twin.diagnosis.noise import fit_ar, fit_walk_ar
-from twin.diagnosis.problem import DiagnosisConfig, Problem, cv_folds
+from twin.estimation.fit import TwinFit
+from twin.estimation.linalg import heldout_errors, novelty, orthonormal_basis
+from twin.estimation.noise import fit_ar, fit_walk_ar
+from twin.estimation.problem import DiagnosisConfig, Problem, cv_folds
 from twin.effects import REGISTRY, Composition, Effect, get_effect
 
 _PROGRESS: list[Callable[[int], object]] = []  # callbacks told of each grid point screened
@@ -27,7 +27,18 @@ _PROGRESS: list[Callable[[int], object]] = []  # callbacks told of each grid poi
 @contextmanager
 def screening_progress(callback: Callable[[int], object]) -> Iterator[None]:
     """Call ``callback(1)`` after every grid point screened inside the block (e.g. a tqdm bar's
-    ``update``: the CLI owns the bar, the library only counts)."""
+    ``update``: the CLI owns the bar, the library only counts).
+
+    Parameters
+    ----------
+    callback : callable
+        Called with 1 per grid point screened.
+
+    Yields
+    ------
+    None
+        The block runs with the callback registered; it is removed on exit.
+    """
     _PROGRESS.append(callback)
     try:
         yield
@@ -37,6 +48,31 @@ def screening_progress(callback: Callable[[int], object]) -> Iterator[None]:
 
 @dataclass
 class CandidateResult:
+    """One candidate effect screened at its best grid point (docs/diagnosis.md §1 step 4).
+
+    Attributes
+    ----------
+    effect, family : str
+    grid_values : dict of str to float
+        Its grid point, in each parameter's unit.
+    delta_bic, p_value, p_adjusted : float
+        ΔBIC, F-test p-value and the Bonferroni-adjusted one [1].
+    explained_fraction, heldout_gain, novelty : float
+        ERR, relative fall of the held-out error, share the model cannot absorb [1].
+    amplitudes : dict of str to tuple of float
+        Amplitude → (estimate, half-width of its 95 % interval) [its unit].
+    columns_full : numpy.ndarray, optional
+        Its full-rate columns (n × m).
+    significant : bool
+        Passes the decision rule.
+    rms_residual_g : float
+        Residual RMS with it added [g].
+    refined_values : dict of str to float, optional
+        ``grid_values`` refined between grid points (named effect).
+    delta_bic_ar : float, optional
+        ΔBIC with the AR-only noise model, where a walk retest replaced it [1].
+    """
+
     effect: str
     family: str
     grid_values: dict[str, float]
@@ -55,13 +91,25 @@ class CandidateResult:
 
     @property
     def evidence_ar(self) -> float:
-        """ΔBIC with the AR-only noise model."""
+        """ΔBIC with the AR-only noise model [1]."""
         return self.delta_bic if self.delta_bic_ar is None else self.delta_bic_ar
 
 
 @dataclass(frozen=True)
 class CandidateTest:
-    """Outcome of :func:`gls_candidate_test`."""
+    """Outcome of :func:`gls_candidate_test`.
+
+    Attributes
+    ----------
+    delta_bic : float
+        BIC improvement, prewhitened [1].
+    p_value : float
+        F-test, before the Bonferroni correction [1].
+    explained_fraction : float
+        ERR: share of the prewhitened residual the candidate explains [1].
+    coef, half_width : numpy.ndarray
+        Coefficients and their 95 % half-widths [each column's amplitude unit].
+    """
 
     delta_bic: float
     p_value: float  # F-test, before the Bonferroni correction
@@ -103,13 +151,13 @@ def is_testable(c: CandidateResult, cfg: DiagnosisConfig) -> bool:
     return c.novelty >= cfg.alias_novelty and get_effect(c.effect).identifiable
 
 
-def screen_columns(problem: Problem, cal: Calibration, cls: type[Effect], values: dict[str, float]):
+def screen_columns(problem: Problem, cal: TwinFit, cls: type[Effect], values: dict[str, float]):
     """Full-rate candidate columns (n × m) and amplitude names.
 
     Parameters
     ----------
     problem : Problem
-    cal : Calibration
+    cal : TwinFit
         Caches the model's temperature derivative for temperature-slot candidates.
     cls : type[Effect]
         The candidate.
@@ -143,7 +191,7 @@ def screen_columns(problem: Problem, cal: Calibration, cls: type[Effect], values
     return out, names
 
 
-def _temperature_derivative(problem: Problem, cal: Calibration, h: float = 0.5) -> np.ndarray:
+def _temperature_derivative(problem: Problem, cal: TwinFit, h: float = 0.5) -> np.ndarray:
     """∂(model output)/∂(die temperature) of the calibrated drift effects [g/°C]."""
     def total(shift):
         inp = cal.inputs.replace(die_c=cal.inputs.die_c + shift, applied_g=problem.applied)
@@ -157,7 +205,23 @@ def _temperature_derivative(problem: Problem, cal: Calibration, h: float = 0.5) 
 
 def gls_candidate_test(problem: Problem, J: np.ndarray, y: np.ndarray, X: np.ndarray,
                        max_order: int, walk: bool = False) -> CandidateTest:
-    """:func:`gls_test` of X on top of J inside the problem's runs."""
+    """:func:`gls_test` of X on top of J inside the problem's runs.
+
+    Parameters
+    ----------
+    problem : Problem
+        Gives the run of each average.
+    J, y, X : np.ndarray
+        The model's design, the target [g] and the candidate's columns, on averages.
+    max_order : int
+        Largest AR order.
+    walk : bool
+        Let the noise model hold a random walk.
+
+    Returns
+    -------
+    CandidateTest
+    """
     return gls_test(J, X, y, problem.run_avg, max_order, walk)
 
 
@@ -167,7 +231,7 @@ def gls_test(J: np.ndarray, X: np.ndarray, y: np.ndarray, runs: np.ndarray, max_
 
     Fitting the AR model to the base residual would let it learn a large missing effect and
     whiten it away; estimated from the residual of J + X it describes the noise that remains.
-    With ``walk`` the noise model may hold a random walk too (:func:`~twin.diagnosis.noise.fit_walk_ar`).
+    With ``walk`` the noise model may hold a random walk too (:func:`~twin.estimation.noise.fit_walk_ar`).
 
     Parameters
     ----------
@@ -176,7 +240,7 @@ def gls_test(J: np.ndarray, X: np.ndarray, y: np.ndarray, runs: np.ndarray, max_
     X : np.ndarray
         The candidate's columns on averages.
     y : np.ndarray
-        The target on averages.
+        The target on averages [g].
     runs : np.ndarray
         Stretch id of each average (prewhitening restarts at each stretch).
     max_order : int
@@ -188,6 +252,12 @@ def gls_test(J: np.ndarray, X: np.ndarray, y: np.ndarray, runs: np.ndarray, max_
     -------
     CandidateTest
         ΔBIC, F p-value, ERR, coefficients, their 95 % half-widths.
+
+    References
+    ----------
+    docs/diagnosis.md §1 step 4. ΔBIC = n ln(RSS₀/RSS₁) − m ln n: Schwarz, G. (1978), Estimating the
+    dimension of a model, *Ann. Stat.* 6(2):461–464; ERR: Billings (2013), *Nonlinear System
+    Identification: NARMAX Methods*.
     """
     A1 = np.column_stack([J, X])
     if walk:
@@ -227,7 +297,7 @@ def _retest_with_walk(problem: Problem, J: np.ndarray, y: np.ndarray, c: Candida
     c.amplitudes = {a: (float(t.coef[j]), float(t.half_width[j])) for j, a in enumerate(c.amplitudes)}
 
 
-def refine_grid_value(problem: Problem, cal: Calibration, c: CandidateResult, J: np.ndarray,
+def refine_grid_value(problem: Problem, cal: TwinFit, c: CandidateResult, J: np.ndarray,
                       y: np.ndarray) -> dict[str, float]:
     """The candidate's one varying nonlinear parameter (τ, play width) refined between its grid
     neighbours by maximising the screening ΔBIC on a log scale (docs/diagnosis.md §1 step 5);
@@ -236,11 +306,11 @@ def refine_grid_value(problem: Problem, cal: Calibration, c: CandidateResult, J:
     Parameters
     ----------
     problem : Problem
-    cal : Calibration
+    cal : TwinFit
     c : CandidateResult
         The candidate at its best grid point.
     J, y : np.ndarray
-        Design and target on averages.
+        Design and target [g] on averages.
 
     Returns
     -------
@@ -268,14 +338,14 @@ def refine_grid_value(problem: Problem, cal: Calibration, c: CandidateResult, J:
     return {**c.grid_values, k: best}
 
 
-def screen(problem: Problem, cal: Calibration, candidates: list[str], extra: np.ndarray | None = None,
+def screen(problem: Problem, cal: TwinFit, candidates: list[str], extra: np.ndarray | None = None,
            n_tests: int | None = None) -> list[CandidateResult]:
     """Screen ``candidates`` on top of the calibrated model (plus ``extra`` full-rate columns).
 
     Parameters
     ----------
     problem : Problem
-    cal : Calibration
+    cal : TwinFit
     candidates : list of str
         Effect names.
     extra : np.ndarray, optional

@@ -16,8 +16,10 @@ import numpy as np
 from scipy import stats
 from scipy.ndimage import uniform_filter1d
 
-from twin.diagnosis.calibrate import Calibration, calibrate
-from twin.diagnosis.problem import DiagnosisConfig, Problem
+from twin.estimation.fit import TwinFit, fit_twin
+from twin.estimation.decimate import block_aligned_factor, decimate
+from twin.estimation.problem import DiagnosisConfig, Problem
+from twin.diagnosis.records import Alias, FamilyChoice, FamilyModel, Withheld
 from twin.diagnosis.screen import CandidateResult, is_testable, screen
 from twin.effects import get_effect
 
@@ -31,13 +33,39 @@ class Pick(NamedTuple):
 
 @dataclass
 class Selection:
+    """The forward selection's outcome (docs/diagnosis.md §1 step 5).
+
+    Attributes
+    ----------
+    selected : list of CandidateResult
+        Named, in order of selection.
+    withheld : list of Withheld
+        Significant but outranked by another family.
+    family_choices : list of FamilyChoice
+        One family's candidates, calibrated whole.
+    """
+
     selected: list[CandidateResult] = field(default_factory=list)  # named, in order of selection
-    withheld: list[dict] = field(default_factory=list)  # significant but outranked by another family
-    family_choices: list[dict] = field(default_factory=list)  # one family's candidates, calibrated whole
+    withheld: list[Withheld] = field(default_factory=list)  # significant but outranked by another family
+    family_choices: list[FamilyChoice] = field(default_factory=list)  # one family's candidates, calibrated whole
 
 
 @dataclass
 class Confidence:
+    """The confidence label and the evidence behind it (docs/diagnosis.md §1 step 5).
+
+    Attributes
+    ----------
+    label : str
+        ``confident``, ``uncertain`` or ``none``.
+    slow_share : float, optional
+        Share of the slow (30-min smoothed) residual variance the named effect removes [1].
+    run_consistent : bool, optional
+        Its coefficient is the same in every run.
+    rivals : list of str
+        Other families aliased with at least half its ΔBIC (either noise model).
+    """
+
     label: str  # "confident", "uncertain" or "none"
     slow_share: float | None = None  # share of the slow residual the named effect removes
     run_consistent: bool | None = None  # its coefficient is the same in every run
@@ -79,8 +107,8 @@ DECISIVE_BIC = 10.0
 MIN_RMS_GAIN = 0.01
 
 
-def choose_within_family(problem: Problem, cal: Calibration, top: CandidateResult, pool: list[CandidateResult],
-                         named: list[CandidateResult]) -> tuple[CandidateResult, dict | None]:
+def choose_within_family(problem: Problem, cal: TwinFit, top: CandidateResult, pool: list[CandidateResult],
+                         named: list[CandidateResult]) -> tuple[CandidateResult, FamilyChoice | None]:
     """Among the significant candidates of ``top``'s family, the one to name, calibrated whole, and
     the comparison (None when the family has one significant candidate).
 
@@ -97,7 +125,7 @@ def choose_within_family(problem: Problem, cal: Calibration, top: CandidateResul
 
     Parameters
     ----------
-    problem, cal : Problem, Calibration
+    problem, cal : Problem, TwinFit
     top : CandidateResult
         The pick of :func:`next_selection`.
     pool : list of CandidateResult
@@ -109,10 +137,9 @@ def choose_within_family(problem: Problem, cal: Calibration, top: CandidateResul
     -------
     candidate : CandidateResult
         The candidate named.
-    comparison : dict or None
-        Family, the effect named, the first by screening, why (``fewest_parameters``,
-        ``decisively_better`` or, all k equal, ``lowest_bic``), each model's k, BIC against the
-        named one's and residual over the best.
+    comparison : FamilyChoice or None
+        Why it is named (``fewest_parameters``, ``decisively_better`` or, all k equal,
+        ``lowest_bic``), with each model's k, BIC against the named one's and residual over the best.
     """
     cfg = problem.config
     same = [c for c in pool if c.family == top.family and c.significant and is_testable(c, cfg)]
@@ -122,7 +149,7 @@ def choose_within_family(problem: Problem, cal: Calibration, top: CandidateResul
     ctx = {k: v for k, v in (cal.composition.effects[0].context if cal.composition.effects else {}).items()
            if k != "fit_all"}
     base = cal.composition.added([c.effect for c in named], ctx)
-    fits = {c.effect: calibrate(coarse, base.added([c.effect], ctx), intervals=False) for c in same}
+    fits = {c.effect: fit_twin(coarse, base.added([c.effect], ctx), intervals=False) for c in same}
     best_fit = min(fits.values(), key=lambda f: float(f.residual_avg @ f.residual_avg))
     n = coarse.run_avg.size
     rss = {e: max(float(np.sum(best_fit.ar.prewhiten(f.residual_avg, coarse.run_avg) ** 2)), 1e-300)
@@ -134,18 +161,13 @@ def choose_within_family(problem: Problem, cal: Calibration, top: CandidateResul
     chosen = lowest if decisive else simplest
     reason = ("decisively_better" if chosen != simplest else "lowest_bic"
               if len({f.free_parameters for f in fits.values()}) == 1 else "fewest_parameters")
-    models = sorted(({"effect": e, "free_parameters": fits[e].free_parameters, "bic_minus_named": bic[e] - bic[chosen],
-                      "rss_over_best": rss[e] / min(rss.values())} for e in fits),
-                    key=lambda m: (m["effect"] != chosen, m["bic_minus_named"]))
-    return (next(c for c in same if c.effect == chosen),
-            {"family": top.family, "named": chosen, "first_by_screening": top.effect, "reason": reason,
-             "models": models})
+    models = sorted((FamilyModel(e, fits[e].free_parameters, float(bic[e] - bic[chosen]), rss[e] / min(rss.values()))
+                     for e in fits), key=lambda m: (m.effect != chosen, m.bic_minus_named))
+    return next(c for c in same if c.effect == chosen), FamilyChoice(top.family, chosen, top.effect, reason, tuple(models))
 
 
 def _on_second_means(problem: Problem) -> Problem:
     """``problem`` on 1-s means (k samples, k dividing its 10-s blocks); itself at 1 Hz or slower."""
-    from twin.diagnosis.decimate import block_aligned_factor, decimate  # decimate imports the pipeline
-
     k = block_aligned_factor(int(problem.rate_hz), int(round(problem.config.average_s * problem.rate_hz)))
     if k <= 1:
         return problem
@@ -153,12 +175,12 @@ def _on_second_means(problem: Problem) -> Problem:
     return Problem(dec, problem.config, time_since_power_on_s=blocks(problem.inputs.time_since_power_on_s))
 
 
-def forward_selection(problem: Problem, cal: Calibration, first: list[CandidateResult], n_tests: int) -> Selection:
+def forward_selection(problem: Problem, cal: TwinFit, first: list[CandidateResult], n_tests: int) -> Selection:
     """Name effects one at a time, rescreening the other families on top of those named.
 
     Parameters
     ----------
-    problem, cal : Problem, Calibration
+    problem, cal : Problem, TwinFit
     first : list of CandidateResult
         The first screening: the pool the first pick comes from.
     n_tests : int
@@ -175,9 +197,8 @@ def forward_selection(problem: Problem, cal: Calibration, first: list[CandidateR
     while pool and len(out.selected) < cfg.max_added:
         top, blocker = next_selection(pool, cfg)
         if blocker is not None:
-            out.withheld.append({"effect": top.effect, "family": top.family, "outranked_by": blocker.effect,
-                                 "outranked_by_family": blocker.family,
-                                 "delta_bic": [top.delta_bic, blocker.delta_bic]})
+            out.withheld.append(Withheld(top.effect, top.family, blocker.effect, blocker.family,
+                                         (top.delta_bic, blocker.delta_bic)))
             break
         if top is None:
             break
@@ -191,14 +212,15 @@ def forward_selection(problem: Problem, cal: Calibration, first: list[CandidateR
     return out
 
 
-def cross_family_partners(top: CandidateResult, aliases: list[dict], candidates: list[CandidateResult]) -> dict:
+def cross_family_partners(top: CandidateResult, aliases: list[Alias], candidates: list[CandidateResult]
+                          ) -> dict[str, float]:
     """Effects of another family in an alias group with ``top`` (screened ones only) → their ΔBIC.
 
     Parameters
     ----------
     top : CandidateResult
-    aliases : list of dict
-        Alias entries, as in :class:`twin.diagnosis.audit.Audit`.
+    aliases : list of Alias
+        From the audit.
     candidates : list of CandidateResult
         The screening that gives each effect's ΔBIC.
 
@@ -208,21 +230,23 @@ def cross_family_partners(top: CandidateResult, aliases: list[dict], candidates:
         Effect name → ΔBIC.
     """
     dbic = {c.effect: c.delta_bic for c in candidates}
-    return {e: dbic[e] for a in aliases if "aliased_with" not in a and top.effect in a["effects"]
-            for e in a["effects"] if e in dbic and get_effect(e).family != top.family}
+    return {e: dbic[e] for a in aliases if a.among_candidates and top.effect in a.effects
+            for e in a.effects if e in dbic and get_effect(e).family != top.family}
 
 
-def assess_confidence(problem: Problem, cal: Calibration, selection: Selection, aliases: list[dict],
-                      confounded: list[dict], first: list[CandidateResult]) -> Confidence:
+def assess_confidence(problem: Problem, cal: TwinFit, selection: Selection, aliases: list[Alias],
+                      confounded: bool, first: list[CandidateResult]) -> Confidence:
     """The confidence label of the finding.
 
     Parameters
     ----------
     problem : Problem
-    cal : Calibration
+    cal : TwinFit
     selection : Selection
-    aliases, confounded : list of dict
+    aliases : list of Alias
         From the audit.
+    confounded : bool
+        The audit found temperature confounded with the per-run offsets.
     first : list of CandidateResult
         The first screening.
 
@@ -258,7 +282,7 @@ def _slow_share(problem: Problem, before: np.ndarray, after: np.ndarray) -> floa
     return float(1 - np.var(s1) / v0) if v0 > 0 else 0.0
 
 
-def _run_consistency(problem: Problem, cal: Calibration, cand: CandidateResult) -> bool | None:
+def _run_consistency(problem: Problem, cal: TwinFit, cand: CandidateResult) -> bool | None:
     """F-test that the candidate's coefficient is the same in every run (None: one run, or the
     feature lives in one run only)."""
     m = problem.m

@@ -15,14 +15,15 @@ departs most.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
-from twin.diagnosis.calibrate import Calibration
+from twin.arrays import temperature_rate_c_per_s
+from twin.estimation.fit import TwinFit
 from scipy import stats
 
-from twin.diagnosis.problem import Problem
+from twin.estimation.problem import Problem
 from twin.diagnosis.screen import CandidateResult
 from twin.measurement.quality import thermal_directions
 
@@ -31,29 +32,38 @@ CHUNK_S = 3600.0
 RATE_DWELL_C_PER_MIN = 0.1
 
 
-@dataclass
+@dataclass(frozen=True)
 class Structure:
-    grouping: str  # "temperature", "rate" or "time"
+    """Where the residual has structure white noise would not make.
+
+    Attributes
+    ----------
+    grouping : str
+        ``temperature``, ``rate``, ``temperature_direction`` or ``time``.
+    delta_bic, p_adjusted : float
+        Evidence for the group means against noise alone [1].
+    rms_g : float
+        RMS of the fitted group means [g].
+    where : str
+        The group that departs most.
+    departure_g : float
+        Its fitted mean [g].
+    """
+
+    grouping: str
     delta_bic: float
     p_adjusted: float
-    rms_g: float  # RMS of the fitted group means
-    where: str  # the group that departs most
-    departure_g: float  # its fitted mean
-
-    def json(self) -> dict:
-        return asdict(self)
+    rms_g: float
+    where: str
+    departure_g: float
 
 
-def _groups(problem: Problem, cal: Calibration) -> dict[str, tuple[np.ndarray, list[str]]]:
+def _groups(problem: Problem, cal: TwinFit) -> dict[str, tuple[np.ndarray, list[str]]]:
     avg = problem.avg
     temp = avg(cal.inputs.die_c)
     t = avg(problem.m.time_s)
     runs = problem.run_avg
-    rate = np.zeros_like(temp)
-    for r in np.unique(runs):
-        s = runs == r
-        if s.sum() > 1:
-            rate[s] = np.gradient(temp[s], t[s]) * 60.0
+    rate = temperature_rate_c_per_s(t, temp, runs) * 60.0  # °C/min of the block means
     tb = np.floor(temp / BIN_C).astype(int)
     rate_g = np.where(rate > RATE_DWELL_C_PER_MIN, 0, np.where(rate < -RATE_DWELL_C_PER_MIN, 1, 2))
     first = {r: t[runs == r][0] for r in np.unique(runs)}
@@ -74,22 +84,33 @@ def _groups(problem: Problem, cal: Calibration) -> dict[str, tuple[np.ndarray, l
 
 def both_directions(problem: Problem) -> bool:
     """Whether the compared rows both heat and cool, as the log-quality stage counts them (≥ 1 °C each
-    way at > 0.05 °C/min): without both, no grouping or sentence sets heating against cooling."""
+    way at > 0.05 °C/min): without both, no grouping or sentence sets heating against cooling.
+
+    Parameters
+    ----------
+    problem : Problem
+        Its measurement's time [s] and temperature [°C].
+
+    Returns
+    -------
+    bool
+        Both heating and cooling are present.
+    """
     d = thermal_directions(problem.m.time_s, problem.m.temperature_c)
     return d.has_heating and d.has_cooling
 
 
-def residual_structure(problem: Problem, cal: Calibration, selected: list[CandidateResult],
+def residual_structure(problem: Problem, cal: TwinFit, selected: list[CandidateResult],
                        floor_g: float, extra_full: np.ndarray | None = None) -> list[Structure]:
     """Groupings in which the residual departs from white noise at the floor; see the module docstring.
 
     Parameters
     ----------
-    problem, cal : Problem, Calibration
+    problem, cal : Problem, TwinFit
     selected : list of CandidateResult
         Named effects, part of the model here.
     floor_g : float
-        Per-sample white-noise σ from the data.
+        Per-sample white-noise σ from the data [g].
     extra_full : np.ndarray, optional
         More full-rate columns (a discovered term).
 

@@ -14,19 +14,11 @@ import sys
 from importlib.metadata import entry_points
 from pathlib import Path
 
-from twin.effects.base import (
-    REGISTRY,
-    Composition,
-    Contribution,
-    Effect,
-    EffectInputs,
-    Parameter,
-    did_you_mean,
-    get_effect,
-    register,
-)
+from twin.effects.base import Contribution, Effect, EffectInputs, Parameter
+from twin.effects.registry import REGISTRY, Composition, get_effect, register
 from twin.errors import ModelError
 from twin.plugins import import_plugin
+from twin.text import did_you_mean
 
 ENTRY_POINT_GROUP = "tde_twin.effects"
 
@@ -47,8 +39,20 @@ _load_entry_points()
 
 
 def load_plugin(spec: str, base_dir: str | Path = ".") -> list[str]:
-    """Import a plugin module (a ``.py`` path relative to ``base_dir``, or a module name) and
-    return the names of the effects it registered. Runs the user's code."""
+    """Import a plugin module and return the names of the effects it registered (runs the user's code).
+
+    Parameters
+    ----------
+    spec : str
+        A ``.py`` path relative to ``base_dir``, or a module name.
+    base_dir : str or Path
+        Directory a relative path is resolved against (the scenario's).
+
+    Returns
+    -------
+    list of str
+        Names of the newly registered effects, sorted.
+    """
     before = set(REGISTRY)
     import_plugin(spec, base_dir, error=ModelError)
     return sorted(set(REGISTRY) - before)

@@ -1,9 +1,10 @@
-"""Effect abstraction and registry.
+"""The effect abstraction: parameters, inputs, contributions and the :class:`Effect` base class.
 
 An effect is a named piece of drift physics with physical parameters (unit, default, bounds,
 source). It reads named inputs (die temperature, time, applied acceleration …) and contributes
 to the bias [g] and/or the relative scale factor [1]. The model sums contributions; every slot is
-filled, "absent" being the explicit ``null`` effect (architecture principles 1–4).
+filled, "absent" being the explicit ``null`` effect (architecture principles 1–4). Effects are
+registered and composed into one model in :mod:`twin.effects.registry`.
 
 Parameters have a role:
 
@@ -28,13 +29,31 @@ from typing import Any, ClassVar
 import numpy as np
 
 from twin.arrays import run_slices
-from twin.errors import ModelError, TwinError
+from twin.errors import ModelError
 from twin.text import did_you_mean
 
 
 @dataclass(frozen=True)
 class Parameter:
-    """A physical parameter: unit, default, bounds (the calibrator's box) and where it comes from."""
+    """A physical parameter: unit, default, bounds (the calibrator's box) and where it comes from.
+
+    Attributes
+    ----------
+    name, unit, source : str
+        Name, unit (e.g. ``"mg/degC"``) and where the default comes from.
+    default : float
+        Default value [unit].
+    bounds : tuple of float
+        (lower, upper): the calibrator's box [unit].
+    role : str
+        ``"amplitude"``, ``"nonlinear"`` or ``"fixed"``.
+    free, screen : bool
+        Calibrated by default; used when the effect is screened as a candidate.
+    description : str
+        Free text.
+    grid : tuple of float
+        Screening grid of a nonlinear parameter [unit].
+    """
 
     name: str
     unit: str
@@ -58,6 +77,17 @@ class EffectInputs:
     ``die_c`` is the true die temperature when simulating a device, and the twin's estimate of
     it (the measured temperature through the temperature slot) when modelling a measurement.
     An input a measurement lacks is ``None``; :meth:`require` names it for the effect that reads it.
+
+    Attributes
+    ----------
+    time_s, time_since_power_on_s : ndarray
+        Sample times; time since the last power-on (or None) [s].
+    die_c, thermometer_c : ndarray or None
+        Die temperature; reference thermometer reading [°C].
+    applied_g : ndarray or None
+        Applied acceleration along the axis [g].
+    run_index : ndarray or None
+        Run number of each sample [1].
     """
 
     time_s: np.ndarray
@@ -69,14 +99,31 @@ class EffectInputs:
     _dt_cache: float | None = field(default=None, init=False, repr=False, compare=False)
 
     def replace(self, **changes: np.ndarray) -> EffectInputs:
-        """A copy with some inputs changed (the sample interval is carried over with the time base)."""
+        """A copy with some inputs changed (the sample interval is carried over with the time base).
+
+        Parameters
+        ----------
+        **changes : ndarray
+            New values of inputs by name (:data:`INPUT_NAMES`) [each input's unit].
+
+        Returns
+        -------
+        EffectInputs
+            The copy; this one is unchanged.
+        """
         new = EffectInputs(**{**{k: getattr(self, k) for k in INPUT_NAMES}, **changes})
         if "time_s" not in changes:
             new._dt_cache = self._dt_cache
         return new
 
     def require(self, effect: type[Effect] | Effect) -> None:
-        """Raise :class:`ModelError` naming the effect and each input it ``reads`` that is missing."""
+        """Raise :class:`ModelError` naming the effect and each input it ``reads`` that is missing.
+
+        Parameters
+        ----------
+        effect : Effect or type of Effect
+            The effect whose ``reads`` are checked.
+        """
         unknown = [r for r in effect.reads if r not in INPUT_NAMES]
         if unknown:
             raise ModelError(f"effect {effect.name!r} reads {', '.join(unknown)}, which is not an input; "
@@ -95,11 +142,30 @@ class EffectInputs:
         return self._dt_cache
 
     def run_slices(self) -> list[slice]:
-        """Contiguous runs: stateful effects restart from equilibrium at each run's start."""
+        """Contiguous runs: stateful effects restart from equilibrium at each run's start.
+
+        Returns
+        -------
+        list of slice
+            One slice of the samples per run, in order (one for all when ``run_index`` is None).
+        """
         return run_slices(self.run_index)
 
     def per_run(self, fn, x: np.ndarray) -> np.ndarray:
-        """Apply a causal filter ``fn(x_run)`` separately to each run."""
+        """Apply a causal filter ``fn(x_run)`` separately to each run.
+
+        Parameters
+        ----------
+        fn : callable
+            Filter taking one run's samples and returning as many [unit of ``x``].
+        x : ndarray
+            Samples on this time base [any unit].
+
+        Returns
+        -------
+        ndarray
+            ``fn`` applied run by run, as floats [unit of ``fn``'s output].
+        """
         out = np.empty(np.shape(x), float)
         for s in self.run_slices():
             out[s] = fn(np.asarray(x)[s])
@@ -108,13 +174,32 @@ class EffectInputs:
 
 @dataclass
 class Contribution:
-    """Bias [g] and relative scale-factor change [1] of one effect."""
+    """Bias [g] and relative scale-factor change [1] of one effect.
+
+    Attributes
+    ----------
+    bias_g : ndarray or float
+        Bias [g].
+    scale_factor : ndarray or float
+        Relative scale-factor change [1].
+    """
 
     bias_g: np.ndarray | float = 0.0
     scale_factor: np.ndarray | float = 0.0
 
     def output_g(self, applied_g: np.ndarray) -> np.ndarray:
-        """Drift in the output [g]: bias + scale-factor change × applied acceleration."""
+        """Drift in the output: bias + scale-factor change × applied acceleration.
+
+        Parameters
+        ----------
+        applied_g : ndarray
+            Applied acceleration [g].
+
+        Returns
+        -------
+        ndarray
+            Output drift [g].
+        """
         return np.asarray(self.bias_g) + np.asarray(self.scale_factor) * np.asarray(applied_g)
 
     def __add__(self, other: Contribution) -> Contribution:
@@ -128,7 +213,15 @@ class Contribution:
 
 class Effect:
     """Base class. Subclasses set ``name``, ``family``, ``parameters``, ``reads`` and implement
-    :meth:`basis` (or, for the temperature slot, :meth:`die_temperature`)."""
+    :meth:`basis` (or, for the temperature slot, :meth:`die_temperature`).
+
+    Parameters
+    ----------
+    context : dict, optional
+        Scenario context (e.g. ``geometry``, ``fit_all``).
+    **values : float
+        Parameter values by name [each parameter's unit]; the others take their defaults.
+    """
 
     name: ClassVar[str]
     family: ClassVar[str]
@@ -160,15 +253,35 @@ class Effect:
     # -- parameters by role
     @classmethod
     def amplitude_names(cls) -> list[str]:
+        """Names of the amplitude parameters, in declaration order.
+
+        Returns
+        -------
+        list of str
+            Parameter names.
+        """
         return [p.name for p in cls.parameters if p.role == "amplitude"]
 
     @classmethod
     def nonlinear_names(cls) -> list[str]:
+        """Names of the nonlinear parameters, in declaration order.
+
+        Returns
+        -------
+        list of str
+            Parameter names.
+        """
         return [p.name for p in cls.parameters if p.role == "nonlinear"]
 
     @classmethod
     def grid(cls) -> list[dict[str, float]]:
-        """Screening grid over the nonlinear parameters (their product); ``[{}]`` if none."""
+        """Screening grid over the nonlinear parameters (their product); ``[{}]`` if none.
+
+        Returns
+        -------
+        list of dict of str to float
+            One mapping of nonlinear parameter name to value [its unit] per grid point.
+        """
         combos: list[dict[str, float]] = [{}]
         for p in cls.parameters:
             if p.role == "nonlinear":
@@ -177,16 +290,49 @@ class Effect:
         return combos
 
     def with_values(self, **values: float) -> Effect:
-        """A copy with some parameters changed (same context)."""
+        """A copy with some parameters changed (same context).
+
+        Parameters
+        ----------
+        **values : float
+            New parameter values by name [each parameter's unit]; the others are kept.
+
+        Returns
+        -------
+        Effect
+            The copy, checked against the bounds as at construction.
+        """
         return type(self)(self.context, **{**self.values, **values})
 
     # -- physics
     def basis(self, inputs: EffectInputs) -> dict[str, Contribution]:
-        """Contribution per unit of each amplitude, at the current nonlinear parameters."""
+        """Contribution per unit of each amplitude, at the current nonlinear parameters.
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            The inputs the effect reads.
+
+        Returns
+        -------
+        dict of str to Contribution
+            Bias [g] and scale factor [1] per unit of each amplitude parameter.
+        """
         return {}
 
     def contribution(self, inputs: EffectInputs) -> Contribution:
-        """The effect's bias and scale-factor change: Σ amplitude × basis."""
+        """The effect's bias and scale-factor change: Σ amplitude × basis.
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            The inputs the effect reads.
+
+        Returns
+        -------
+        Contribution
+            Bias [g] and relative scale-factor change [1].
+        """
         inputs.require(self)
         total = Contribution()
         for name, unit_contribution in self.basis(inputs).items():
@@ -194,15 +340,40 @@ class Effect:
         return total
 
     def die_temperature(self, inputs: EffectInputs) -> np.ndarray:  # pragma: no cover - temperature slot only
+        """Die temperature [°C] from the inputs (temperature-slot effects implement it).
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            The inputs the effect reads (the measured temperature among them).
+
+        Returns
+        -------
+        ndarray
+            Die temperature per sample [°C].
+        """
         raise NotImplementedError
 
     def thermometer_shift_c(self) -> float:
-        """For ``acts_on_thermometer`` effects: what the reading gains in a simulated device [°C]."""
+        """For ``acts_on_thermometer`` effects: what the reading gains in a simulated device [°C].
+
+        Returns
+        -------
+        float
+            Shift of the thermometer reading [°C]; 0 for every other effect.
+        """
         return 0.0
 
     @classmethod
     def describe(cls) -> dict:
-        """Registry entry as plain data (for ``twin effects`` and the docs)."""
+        """Registry entry as plain data (for ``twin effects`` and the docs).
+
+        Returns
+        -------
+        dict
+            Name, family, slot, description, inputs read, identifiability, module, and each
+            parameter's name, unit, default, bounds [its unit], role, freedom and source.
+        """
         return {
             "name": cls.name,
             "family": cls.family,
@@ -217,111 +388,3 @@ class Effect:
                 for p in cls.parameters
             ],
         }
-
-
-REGISTRY: dict[str, type[Effect]] = {}
-
-
-def register(cls: type[Effect]) -> type[Effect]:
-    """Class decorator: add an effect to the registry under its ``name``."""
-    for attr in ("name", "family"):
-        if not isinstance(getattr(cls, attr, None), str) or not getattr(cls, attr).strip():
-            raise ModelError(f"effect class {cls.__name__} needs a non-empty string {attr!r}")
-    existing = REGISTRY.get(cls.name)
-    if existing is not None and (existing.__module__, existing.__qualname__) != (cls.__module__, cls.__qualname__):
-        raise ModelError(f"an effect named {cls.name!r} is already registered (by {existing.__module__})")
-    if cls.__module__.split(".")[0] != "twin":
-        _check_basis_of(cls)
-    REGISTRY[cls.name] = cls
-    return cls
-
-
-BASIS_LIMIT = 1e6  # |bias [g]| or |scale factor| per unit amplitude: far beyond any real effect
-
-
-def _check_basis_of(cls: type[Effect]) -> None:
-    """Wrap a plugin's :meth:`Effect.basis`: whoever calls it (simulation, screening, fitting) gets
-    one line naming the effect when it raises or returns anything but finite per-sample values."""
-    raw = cls.__dict__.get("basis")
-    if raw is None or getattr(raw, "checked_basis", False):
-        return
-
-    def basis(self, inputs):
-        try:
-            out = raw(self, inputs)
-        except TwinError:
-            raise
-        except (Exception, SystemExit) as exc:  # noqa: BLE001 - user code: named, never a traceback
-            raise ModelError(f"effect {self.name!r} ({type(self).__module__}): basis failed: {type(exc).__name__}: "
-                             f"{' '.join(str(exc).split())[:200]}") from None
-        amplitudes, n = set(self.amplitude_names()), np.shape(inputs.time_s)
-        if not (isinstance(out, dict) and set(out) <= amplitudes
-                and all(isinstance(c, Contribution) for c in out.values())):
-            raise ModelError(f"effect {self.name!r}: basis returned {type(out).__name__}; expected a mapping of its "
-                             f"amplitude parameters ({', '.join(sorted(amplitudes)) or 'none'}) to Contribution")
-        for key, c in out.items():
-            for part in ("bias_g", "scale_factor"):
-                a = np.asarray(getattr(c, part))
-                if a.dtype.kind not in "biuf" or a.shape not in ((), n) or not np.all(np.abs(a) <= BASIS_LIMIT):
-                    raise ModelError(f"effect {self.name!r}: basis {key}.{part}: got {a.dtype} of shape {a.shape}, "
-                                     f"expected {n[0] if n else 1} finite numbers within ±{BASIS_LIMIT:g}")
-        return out
-
-    basis.checked_basis = True
-    basis.__doc__ = raw.__doc__
-    cls.basis = basis
-
-
-def get_effect(name: str) -> type[Effect]:
-    """The registered effect class called ``name``; unknown names get "did you mean"."""
-    try:
-        return REGISTRY[name]
-    except KeyError:
-        raise ModelError(f"unknown effect {name!r}{did_you_mean(name, REGISTRY)}") from None
-
-
-@dataclass
-class Composition:
-    """Effects composed into one model: a temperature slot (``null`` = die is the measured
-    temperature) and drift effects summed; contributions kept per effect as ground truth."""
-
-    effects: list[Effect] = field(default_factory=list)
-
-    @property
-    def temperature_effect(self) -> Effect | None:
-        slots = [e for e in self.effects if e.slot == "temperature"]
-        if len(slots) > 1:
-            raise ModelError(f"only one temperature-slot effect allowed, got {[e.name for e in slots]}")
-        return slots[0] if slots else None
-
-    @property
-    def drift_effects(self) -> list[Effect]:
-        return [e for e in self.effects if e.slot == "drift"]
-
-    def with_die_temperature(self, inputs: EffectInputs) -> EffectInputs:
-        """Inputs with ``die_c`` from the temperature slot (unchanged when it is empty)."""
-        slot = self.temperature_effect
-        if slot is None:
-            return inputs
-        inputs.require(slot)
-        return inputs.replace(die_c=slot.die_temperature(inputs))
-
-    def evaluate(self, inputs: EffectInputs, device: bool = False) -> dict[str, Contribution]:
-        """Per-effect contributions (drift effects only) after the temperature slot.
-
-        ``device=True``: simulating a device, where effects acting on the thermometer change the
-        reading (:meth:`thermometer_shift_c`) and contribute nothing to the output.
-        """
-        inputs = self.with_die_temperature(inputs)
-        return {e.name: (Contribution() if device and e.acts_on_thermometer else e.contribution(inputs))
-                for e in self.drift_effects}
-
-    def thermometer_shift_c(self) -> float:
-        return sum(e.thermometer_shift_c() for e in self.effects if e.acts_on_thermometer)
-
-    def added(self, names: list[str], context: dict[str, Any]) -> Composition:
-        """This model with the named effects added whole: every amplitude calibrated, those fixed
-        by default too (an effect a user or the diagnosis adds is fitted as a whole)."""
-        present = [e.name for e in self.effects]
-        new = [get_effect(n)({**context, "fit_all": True}) for n in dict.fromkeys(names) if n not in present]
-        return Composition(self.effects + new)

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from twin.effects.base import Composition, Effect, EffectInputs
+from twin.effects.base import Effect, EffectInputs
+from twin.effects.registry import Composition
 from twin.errors import ModelError
 
 
@@ -13,7 +14,22 @@ class EffectCheckError(ModelError):
 
 
 def conformance_inputs(n: int = 20000, dt_s: float = 1.0, seed: int = 0) -> EffectInputs:
-    """A test-plan-like input: ramps up and down at two rates, a ±1 g tumble, a power cycle."""
+    """A test-plan-like input: ramps up and down at two rates, a ±1 g tumble, a power cycle.
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    dt_s : float
+        Sample interval [s].
+    seed : int
+        Seed of the thermometer noise (σ 0.01 °C).
+
+    Returns
+    -------
+    EffectInputs
+        Every input filled, one run.
+    """
     t = np.arange(n) * dt_s
     temp = 25 + 30 * np.sin(2 * np.pi * t / (n * dt_s / 2.5)) * np.minimum(1, t / 2000)
     rng = np.random.default_rng(seed)
@@ -34,7 +50,13 @@ def _fail(cls: type[Effect], what: str) -> None:
 
 
 def check_parameters(cls: type[Effect]) -> None:
-    """Every parameter has a unit, a source, a role, a default inside bounds; grids inside bounds."""
+    """Every parameter has a unit, a source, a role, a default inside bounds; grids inside bounds.
+
+    Parameters
+    ----------
+    cls : type of Effect
+        The effect class checked.
+    """
     for p in cls.parameters:
         if not (p.unit and p.source):
             _fail(cls, f"parameter {p.name!r} needs a unit and a source")
@@ -49,8 +71,16 @@ def check_parameters(cls: type[Effect]) -> None:
         _fail(cls, "grid() must cover every nonlinear parameter")
 
 
-def check_outputs(cls: type[Effect], inputs: EffectInputs) -> None:
-    """Finite outputs of the right shape; the contribution is Σ amplitude × basis."""
+def check_effect_outputs(cls: type[Effect], inputs: EffectInputs) -> None:
+    """Finite outputs of the right shape; the contribution is Σ amplitude × basis.
+
+    Parameters
+    ----------
+    cls : type of Effect
+        The effect class checked (at its defaults).
+    inputs : EffectInputs
+        Inputs to evaluate it on.
+    """
     effect = cls()
     out = _outputs(effect, inputs)
     if np.shape(out) != inputs.time_s.shape or not np.all(np.isfinite(out)):
@@ -64,7 +94,17 @@ def check_outputs(cls: type[Effect], inputs: EffectInputs) -> None:
 
 
 def check_causal(cls: type[Effect], inputs: EffectInputs, k: int | None = None) -> None:
-    """Changing the inputs after sample ``k`` leaves the output before ``k`` unchanged."""
+    """Changing the inputs after sample ``k`` leaves the output before ``k`` unchanged.
+
+    Parameters
+    ----------
+    cls : type of Effect
+        The effect class checked (at its defaults).
+    inputs : EffectInputs
+        Inputs to evaluate it on.
+    k : int, optional
+        First changed sample; default 60 % of the way through.
+    """
     k = int(inputs.time_s.size * 0.6) if k is None else k
     future = inputs.replace(die_c=inputs.die_c.copy(), thermometer_c=inputs.thermometer_c.copy(),
                             applied_g=inputs.applied_g.copy(), time_since_power_on_s=inputs.time_since_power_on_s.copy())
@@ -79,7 +119,17 @@ def check_causal(cls: type[Effect], inputs: EffectInputs, k: int | None = None) 
 
 
 def check_reference(cls: type[Effect], reference_c: float = 25.0, n: int = 5000) -> None:
-    """An effect of temperature gives nothing at the reference temperature without history."""
+    """An effect of temperature gives nothing at the reference temperature without history.
+
+    Parameters
+    ----------
+    cls : type of Effect
+        The effect class checked (at its defaults).
+    reference_c : float
+        Constant temperature held [°C].
+    n : int
+        Number of 1 s samples.
+    """
     if not set(cls.reads) & {"die_c", "thermometer_c"}:
         return
     t = np.arange(n, dtype=float)
@@ -100,9 +150,14 @@ def check_effect(cls: type[Effect]) -> None:
     """Run every conformance check on an effect class; raise :class:`EffectCheckError` on the first failure.
 
     For plugin authors: ``check_effect(MyEffect)`` in a test is what the built-in effects pass.
+
+    Parameters
+    ----------
+    cls : type of Effect
+        The effect class checked.
     """
     inputs = conformance_inputs()
     check_parameters(cls)
-    check_outputs(cls, inputs)
+    check_effect_outputs(cls, inputs)
     check_causal(cls, inputs, k=12000)
     check_reference(cls)

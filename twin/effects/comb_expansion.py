@@ -6,7 +6,8 @@ import numpy as np
 
 from sim.microstructure import CombGeometry, drift_g
 from twin.effects._common import REFERENCE_C
-from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.effects.base import Contribution, Effect, Parameter
+from twin.effects.registry import register
 
 _GRID_C = np.arange(-60.0, 150.0 + 1e-9, 0.05)  # fixed, so a sample never depends on others (causal)
 
@@ -18,6 +19,8 @@ def _scale_factor_table(geometry: CombGeometry, reference_c: float) -> np.ndarra
 
 @register
 class CombExpansion(Effect):
+    """The paper's microstructure mechanism: comb thermal expansion → sensitivity (reading S)."""
+
     name = "comb_expansion"
     family = "scale_factor"
     description = ("comb fingers grow with the silicon strain ε(T) while anchors stay (paper eq. 15 with ε, "
@@ -30,6 +33,23 @@ class CombExpansion(Effect):
     )
 
     def basis(self, inputs):
+        """Scale factor of the default-geometry comb against die temperature, per unit ``scale``.
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            Reads ``die_c`` [°C] (geometry from the context).
+
+        Returns
+        -------
+        dict of str to Contribution
+            ``scale``: relative scale-factor change [1] per unit scale.
+
+        References
+        ----------
+        Qi et al. (2022), Micromachines 13, 2156, eq. (15) with the silicon strain ε(T), differential
+        signal of eqs. (16)–(19) (:func:`sim.microstructure.drift_g`).
+        """
         geometry = self.context.get("geometry") or CombGeometry()
         die = np.asarray(inputs.die_c, float)
         if die.size and (die.min() < _GRID_C[0] or die.max() > _GRID_C[-1]):

@@ -15,7 +15,8 @@ import numpy as np
 
 from sim.microstructure import CombGeometry
 from twin.effects._common import REFERENCE_C
-from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.effects.base import Contribution, Effect, Parameter
+from twin.effects.registry import register
 from twin.errors import ModelError
 
 _GRID_C = np.arange(-60.0, 150.0 + 1e-9, 0.25)  # fixed grid: a sample never depends on the others (causal)
@@ -40,6 +41,8 @@ def _tables(design, layout, geometry: CombGeometry, reading: str, reference_c: f
 
 @register
 class PackageFem(Effect):
+    """Package stress from the finite-element model: bias and scale factor from geometry and materials."""
+
     name = "package_fem"
     family = "bias_tc"
     description = ("package CTE mismatch solved by finite elements (generalised plane strain, Q2) and carried to "
@@ -67,7 +70,18 @@ class PackageFem(Effect):
     )
 
     def design(self, **overrides):
-        """The :class:`sim.fem.package_stack.PackageDesign` of the current parameters."""
+        """The :class:`sim.fem.package_stack.PackageDesign` of the current parameters.
+
+        Parameters
+        ----------
+        **overrides
+            Further ``PackageDesign`` fields (thicknesses [µm], moduli [GPa], CTEs [ppm/K]).
+
+        Returns
+        -------
+        PackageDesign
+            The stack design.
+        """
         from sim.fem.package_stack import PackageDesign
 
         v = self.values
@@ -80,17 +94,40 @@ class PackageFem(Effect):
             raise ModelError(f"effect {self.name!r}: {exc}") from None
 
     def layout(self):
-        """The :class:`sim.fem.comb_on_substrate.AnchorLayout` of the current parameters."""
+        """The :class:`sim.fem.comb_on_substrate.AnchorLayout` of the current parameters.
+
+        Returns
+        -------
+        AnchorLayout
+            Cell offset and anchor half-spans [µm].
+        """
         from sim.fem.comb_on_substrate import AnchorLayout
 
         v = self.values
         return AnchorLayout(v["cell_offset_um"], v["spring_half_span_um"], v["electrode_half_span_um"])
 
     def geometry(self) -> CombGeometry:
+        """The comb geometry of the context, or the default one.
+
+        Returns
+        -------
+        CombGeometry
+            Dimensions [µm] and resonance [Hz].
+        """
         return self.context.get("geometry") or CombGeometry()
 
     def tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(temperature grid [°C], bias [g], scale factor [1]) per unit amplitude."""
+        """Bias and scale factor per unit amplitude on the fixed temperature grid (one FE solve, cached).
+
+        Returns
+        -------
+        tuple of ndarray
+            (temperature grid [°C], bias [g], scale factor [1]), zero at the reference temperature.
+
+        References
+        ----------
+        docs/fem.md (design notes §D1, §D4).
+        """
         try:
             offset, sf = _tables(self.design(), self.layout(), self.geometry(), "H", self.values["reference_c"])
         except ValueError as exc:
@@ -98,6 +135,23 @@ class PackageFem(Effect):
         return _GRID_C, offset, sf
 
     def basis(self, inputs):
+        """Bias and scale factor per unit scale, interpolated from :meth:`tables` at the die temperature.
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            Reads ``die_c`` [°C], inside the tabulated −60..150 °C.
+
+        Returns
+        -------
+        dict of str to Contribution
+            ``bias_scale``: bias [g]; ``scale_factor_scale``: scale factor [1]; each per unit scale.
+
+        References
+        ----------
+        docs/fem.md; gap changes to capacitances as Qi et al. (2022), Micromachines 13, 2156,
+        eqs. (16)–(19).
+        """
         die = np.asarray(inputs.die_c, float)
         if die.size and (die.min() < _GRID_C[0] or die.max() > _GRID_C[-1]):
             raise ModelError(f"effect {self.name!r}: die temperature {die.min():.1f}..{die.max():.1f} °C is outside "

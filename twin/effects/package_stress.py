@@ -3,11 +3,14 @@
 import numpy as np
 
 from twin.effects._common import REFERENCE_C
-from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.effects.base import Contribution, Effect, Parameter
+from twin.effects.registry import register
 
 
 @register
 class PackageStress(Effect):
+    """CTE mismatch of the die/attach/package/board stack → bias (elastic, instantaneous)."""
+
     name = "package_stress"
     family = "bias_tc"
     description = ("bias = coupling × CTE mismatch × ΔT (docs/diagnosis.md §2b): same signature as a bias "
@@ -23,5 +26,21 @@ class PackageStress(Effect):
     )
 
     def basis(self, inputs):
+        """Bias per unit coupling: strain = CTE mismatch × (T_die − T_ref).
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            Reads ``die_c`` [°C].
+
+        Returns
+        -------
+        dict of str to Contribution
+            ``coupling_mg_per_ustrain``: bias [g] per mg/microstrain.
+
+        References
+        ----------
+        docs/diagnosis.md §2b; thermal strain Δα·ΔT (standard result).
+        """
         strain_ue = self.values["cte_mismatch_ppm_per_k"] * (np.asarray(inputs.die_c) - self.values["reference_c"])
         return {"coupling_mg_per_ustrain": Contribution(bias_g=strain_ue * 1e-3)}

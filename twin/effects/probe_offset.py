@@ -2,11 +2,14 @@
 
 import numpy as np
 
-from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.effects.base import Contribution, Effect, Parameter
+from twin.effects.registry import register
 
 
 @register
 class ProbeOffset(Effect):
+    """Reference-thermometer offset: the probe reads δ above the true temperature (unidentifiable)."""
+
     name = "probe_offset"
     family = "probe"
     identifiable = False
@@ -22,7 +25,30 @@ class ProbeOffset(Effect):
     )
 
     def thermometer_shift_c(self):
+        """What the reading gains in a simulated device: the offset δ.
+
+        Returns
+        -------
+        float
+            δ [°C].
+        """
         return self.values["offset_c"]
 
     def basis(self, inputs):
+        """Bias per °C of probe offset, −b1 through the bias tempco (constant in time).
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            Reads ``time_s`` [s] (for the shape only).
+
+        Returns
+        -------
+        dict of str to Contribution
+            ``offset_c``: bias [g] per °C of offset.
+
+        References
+        ----------
+        docs/diagnosis.md §2h.
+        """
         return {"offset_c": Contribution(bias_g=-self.values["tc_mg_per_c"] * 1e-3 * np.ones(np.shape(inputs.time_s)))}

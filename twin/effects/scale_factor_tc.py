@@ -2,11 +2,14 @@
 
 from sim.drift import scale_factor_tc
 from twin.effects._common import REFERENCE_C
-from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.effects.base import Contribution, Effect, Parameter
+from twin.effects.registry import register
 
 
 @register
 class ScaleFactorTC(Effect):
+    """Empirical sensitivity drift against die temperature, linear + quadratic (TCSo)."""
+
     name = "scale_factor_tc"
     family = "scale_factor"
     description = "relative sensitivity vs die temperature, s1·ΔT + s2·ΔT² (TCSo; odd in the applied g)"
@@ -18,6 +21,22 @@ class ScaleFactorTC(Effect):
     )
 
     def basis(self, inputs):
+        """Scale factor per unit linear and quadratic tempco, s·ΔT and s·ΔT².
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            Reads ``die_c`` [°C].
+
+        Returns
+        -------
+        dict of str to Contribution
+            ``tc1_ppm_per_c``: scale factor [1] per ppm/°C; ``tc2_ppm_per_c2``: per ppm/°C².
+
+        References
+        ----------
+        IEEE Std 1293 model equation (as :func:`sim.drift.scale_factor_tc`).
+        """
         ref = self.values["reference_c"]
         return {"tc1_ppm_per_c": Contribution(scale_factor=scale_factor_tc(inputs.die_c, 1.0, 0.0, ref)),
                 "tc2_ppm_per_c2": Contribution(scale_factor=scale_factor_tc(inputs.die_c, 0.0, 1.0, ref))}

@@ -4,11 +4,14 @@ import numpy as np
 
 from sim.drift import maxwell_relaxation
 from twin.effects._common import REFERENCE_C
-from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.effects.base import Contribution, Effect, Parameter
+from twin.effects.registry import register
 
 
 @register
 class StressRelaxation(Effect):
+    """Viscoelastic creep of die attach and mould: Maxwell elements (a two-term Prony sum)."""
+
     name = "stress_relaxation"
     family = "hysteresis"
     description = ("bias = Σ k_i·(ΔT − LP_τi(ΔT)): follows temperature changes, relaxes over hours in dwells, "
@@ -26,6 +29,22 @@ class StressRelaxation(Effect):
     )
 
     def basis(self, inputs):
+        """Bias per unit of each Prony amplitude: ΔT − LP_τi(ΔT), per run.
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            Reads ``die_c`` [°C].
+
+        Returns
+        -------
+        dict of str to Contribution
+            ``k1_mg_per_c``, ``k2_mg_per_c``: bias [g] per mg/°C.
+
+        References
+        ----------
+        Maxwell element (standard viscoelastic model), docs/diagnosis.md §2c.
+        """
         dt = inputs.dt_s
         delta = np.asarray(inputs.die_c, float) - self.values["reference_c"]
         out = {}

@@ -1,11 +1,14 @@
 """Stress from the transient gradient across package and board, ∝ rate of change."""
 
 from sim.drift import smoothed_rate_c_per_s
-from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.effects.base import Contribution, Effect, Parameter
+from twin.effects.registry import register
 
 
 @register
 class ThermalGradient(Effect):
+    """Stress from the transient gradient across package and board, ∝ rate of change."""
+
     name = "thermal_gradient"
     family = "thermal_lag"
     description = ("bias ∝ dT/dt seen through a node of time constant τ (docs/diagnosis.md §2i); "
@@ -19,6 +22,22 @@ class ThermalGradient(Effect):
     )
 
     def basis(self, inputs):
+        """Bias per unit coefficient: the die temperature's rate through a lag τ, per run.
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            Reads ``die_c`` [°C].
+
+        Returns
+        -------
+        dict of str to Contribution
+            ``coef_mg_per_c_per_min``: bias [g] per mg/(°C/min).
+
+        References
+        ----------
+        Rate of a first-order lag τ dy/dt = T − y (standard result); docs/diagnosis.md §2i.
+        """
         dt, tau = inputs.dt_s, self.values["tau_s"]
         rate = inputs.per_run(lambda x: smoothed_rate_c_per_s(x, dt, tau), inputs.die_c)
         return {"coef_mg_per_c_per_min": Contribution(bias_g=rate * 60.0 * 1e-3)}

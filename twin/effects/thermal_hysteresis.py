@@ -3,11 +3,14 @@
 import numpy as np
 
 from sim.drift import play_operator
-from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.effects.base import Contribution, Effect, Parameter
+from twin.effects.registry import register
 
 
 @register
 class ThermalHysteresis(Effect):
+    """Rate-independent memory of the temperature path: a play operator (Prandtl–Ishlinskii hysteron)."""
+
     name = "thermal_hysteresis"
     family = "hysteresis"
     description = ("bias = k·(play_r(T) − T): opposite offsets on heating and cooling whatever the ramp rate, "
@@ -20,6 +23,22 @@ class ThermalHysteresis(Effect):
     )
 
     def basis(self, inputs):
+        """Bias per unit k: play_r(T) − T, per run.
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            Reads ``die_c`` [°C].
+
+        Returns
+        -------
+        dict of str to Contribution
+            ``k_mg_per_c``: bias [g] per mg/°C.
+
+        References
+        ----------
+        Krasnosel'skii & Pokrovskii (1989), *Systems with Hysteresis*.
+        """
         r = self.values["half_width_c"]
         die = np.asarray(inputs.die_c, float)
         state = inputs.per_run(lambda x: play_operator(x, r), die)

@@ -3,11 +3,14 @@
 import numpy as np
 
 from sim.drift import lowpass
-from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.effects.base import Contribution, Effect, Parameter
+from twin.effects.registry import register
 
 
 @register
 class ThermalLag(Effect):
+    """The twin's model of the die lagging the reference thermometer (one or two RC nodes)."""
+
     name = "thermal_lag"
     family = "thermal_lag"
     slot = "temperature"
@@ -25,9 +28,41 @@ class ThermalLag(Effect):
     )
 
     def die_temperature(self, inputs):
+        """Die temperature: the thermometer through one or two first-order lags, per run.
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            Reads ``thermometer_c`` [°C].
+
+        Returns
+        -------
+        ndarray
+            Die temperature [°C].
+
+        References
+        ----------
+        Standard first-order lag τ dT_d/dt = T_m − T_d (:func:`sim.drift.lowpass`).
+        """
         dt, t1, t2 = inputs.dt_s, self.values["tau_s"], self.values["tau2_s"]
         return inputs.per_run(lambda x: lowpass(lowpass(x, dt, t1), dt, t2), inputs.thermometer_c)
 
     def basis(self, inputs):
+        """Screening column: bias per unit tempco, LP_τ(T) − T.
+
+        Parameters
+        ----------
+        inputs : EffectInputs
+            Reads ``thermometer_c`` [°C].
+
+        Returns
+        -------
+        dict of str to Contribution
+            ``tc_mg_per_c``: bias [g] per mg/°C.
+
+        References
+        ----------
+        Standard first-order lag τ dT_d/dt = T_m − T_d; docs/diagnosis.md §2a.
+        """
         lagged = self.die_temperature(inputs)
         return {"tc_mg_per_c": Contribution(bias_g=(lagged - np.asarray(inputs.thermometer_c)) * 1e-3)}

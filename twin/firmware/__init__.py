@@ -6,10 +6,11 @@ degree, instance, PX4 device id) before any text exists; the ``.params``/``.parm
 their text back as the loader does before it is written. ``px4_vehicle_offsets`` and
 ``ardupilot_vehicle_offsets`` give what the vehicle applies along a log.
 
-Pure numpy/scipy; depends only on ``twin.errors`` and ``twin.io``. Units: m/s², rad/s and °C
+Pure numpy/scipy; depends only on ``twin.errors``, ``twin.io`` and ``twin.arrays``. Units: m/s², rad/s and °C
 throughout (1 g = :data:`G0_M_S2` = 9.80665 m/s²).
 """
 
+from twin.arrays import interleaved_folds  # the project's one fold builder, public here since firmware fits use it
 from twin.firmware.ardupilot import (
                                      CALTEMP_UNSET_C,
                                      TEMP_RANGE_MIN_C,
@@ -64,31 +65,30 @@ from twin.firmware.lag_header import lag_aware_c_header, write_lag_aware_c_heade
 from twin.firmware.polynomial import (
                                      HeldoutPolynomialFit,
                                      fit_polynomial_heldout,
-                                     interleaved_folds,
 )
 from twin.firmware.px4 import (
                                      Px4AccelCal,
                                      Px4GyroCal,
-                                     firmware_offset_px4,
                                      fit_px4,
                                      fit_px4_gyro,
                                      median_filter,
-                                     px4_republish_lag_c,
-                                     px4_vehicle_offsets,
                                      resample_by_temperature,
 )
-from twin.firmware.px4_params import (
+from twin.firmware.px4_param_file import (
                                      Px4ParamFile,
-                                     check_px4_cal,
-                                     checked_px4_params_text,
                                      parse_px4_params,
                                      px4_cal_from_params,
+                                     read_px4_params,
+)
+from twin.firmware.px4_params import (
+                                     check_px4_cal,
+                                     checked_px4_params_text,
                                      px4_cal_from_polynomial,
                                      px4_params_text,
-                                     read_px4_params,
                                      verify_px4_params,
                                      write_px4_params,
 )
+from twin.firmware.px4_vehicle import firmware_offset_px4, px4_republish_lag_c, px4_vehicle_offsets
 
 __all__ = [
     "AXES", "CALTEMP_UNSET_C", "FLOAT32_MAX", "G0_M_S2", "SCHEMA_VERSION", "TEMP_RANGE_MIN_C", "TEMP_REF_C",

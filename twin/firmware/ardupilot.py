@@ -81,7 +81,22 @@ class ArduPilotCalBase:
         return ClampedPolynomial(self.tmin_c, self.tmax_c, TEMP_REF_C, tuple(coeffs))
 
     def offset(self, temperature_c) -> np.ndarray:
-        """Predicted offset (n, 3) the firmware subtracts (zero at cal_temp_c), in the sensor's unit."""
+        """Predicted offset (n, 3) the firmware subtracts (zero at cal_temp_c), in the sensor's unit.
+
+        Parameters
+        ----------
+        temperature_c : float or array_like
+            IMU temperature [°C].
+
+        Returns
+        -------
+        ndarray
+            Offset [m/s² for the accel, rad/s for the gyro].
+
+        References
+        ----------
+        ArduPilot ``TCal::correct_sensor`` (AP_InertialSensor_tempcal.cpp), as the module docstring.
+        """
         return self.polynomial.offset(temperature_c)
 
 
@@ -116,11 +131,35 @@ class ArduPilotAccelCal(ArduPilotCalBase):
     sensor: ClassVar[str] = "accel"
 
     def offset_m_s2(self, temperature_c) -> np.ndarray:
-        """Predicted offset (n, 3) in m/s² that the firmware subtracts (zero at cal_temp_c)."""
+        """Predicted offset (n, 3) in m/s² that the firmware subtracts (zero at cal_temp_c).
+
+        Parameters
+        ----------
+        temperature_c : float or array_like
+            IMU temperature [°C].
+
+        Returns
+        -------
+        ndarray
+            Offset [m/s²], as :meth:`offset`.
+        """
         return self.offset(temperature_c)
 
     def correct(self, accel_m_s2, temperature_c) -> np.ndarray:
-        """Corrected reading (m/s², before INS_ACCOFFS/INS_ACCSCAL and board rotation)."""
+        """Corrected reading (m/s², before INS_ACCOFFS/INS_ACCSCAL and board rotation).
+
+        Parameters
+        ----------
+        accel_m_s2 : array_like
+            Raw reading, (n, 3) or (3,) [m/s²].
+        temperature_c : float or array_like
+            IMU temperature [°C].
+
+        Returns
+        -------
+        ndarray
+            Reading minus :meth:`offset_m_s2` [m/s²], in float64.
+        """
         return np.asarray(accel_m_s2, dtype=float) - self.offset_m_s2(temperature_c)
 
 
@@ -152,16 +191,53 @@ class ArduPilotGyroCal(ArduPilotCalBase):
     sensor: ClassVar[str] = "gyro"
 
     def offset_rad_s(self, temperature_c) -> np.ndarray:
-        """Predicted gyro offset (n, 3) in rad/s that the firmware subtracts (zero at cal_temp_c)."""
+        """Predicted gyro offset (n, 3) in rad/s that the firmware subtracts (zero at cal_temp_c).
+
+        Parameters
+        ----------
+        temperature_c : float or array_like
+            IMU temperature [°C].
+
+        Returns
+        -------
+        ndarray
+            Offset [rad/s], as :meth:`offset`.
+        """
         return self.offset(temperature_c)
 
     def correct(self, gyro_rad_s, temperature_c) -> np.ndarray:
-        """Corrected rate (rad/s, before INS_GYROFFS and board rotation)."""
+        """Corrected rate (rad/s, before INS_GYROFFS and board rotation).
+
+        Parameters
+        ----------
+        gyro_rad_s : array_like
+            Raw rate, (n, 3) or (3,) [rad/s].
+        temperature_c : float or array_like
+            IMU temperature [°C].
+
+        Returns
+        -------
+        ndarray
+            Rate minus :meth:`offset_rad_s` [rad/s], in float64.
+        """
         return np.asarray(gyro_rad_s, dtype=float) - self.offset_rad_s(temperature_c)
 
 
 def moving_average(values: np.ndarray, window: int) -> np.ndarray:
-    """``IMUData.moving_average`` of tempcal_IMU.py: cumulative-sum mean, valid part (n − w + 1)."""
+    """``IMUData.moving_average`` of tempcal_IMU.py: cumulative-sum mean, valid part (n − w + 1).
+
+    Parameters
+    ----------
+    values : ndarray
+        Samples along axis 0 [any unit].
+    window : int
+        Window [samples].
+
+    Returns
+    -------
+    ndarray
+        Means over each full window [unit of ``values``].
+    """
     ret = np.cumsum(np.asarray(values, dtype=float), axis=0)
     ret[window:] = ret[window:] - ret[:-window]
     return ret[window - 1:] / window
@@ -218,6 +294,7 @@ def fit_ardupilot(temperature_c, accel_m_s2, *, time_s=None, cal_temp_c: float |
     Returns
     -------
     ArduPilotAccelCal
+        TMIN/TMAX [°C] and the cubic's coefficients [m/s²/°C^k].
 
     Raises
     ------
@@ -254,6 +331,7 @@ def fit_ardupilot_gyro(temperature_c, gyro_rad_s, *, time_s=None, cal_temp_c: fl
     Returns
     -------
     ArduPilotGyroCal
+        TMIN/TMAX [°C] and the cubic's coefficients [rad/s/°C^k].
 
     Notes
     -----
@@ -325,12 +403,47 @@ def ardupilot_vehicle_correct(values: Mapping[str, float], reading, temperature_
     ArduPilot applies ``correct_accel``/``correct_gyro`` to every sample with the current
     temperature (no held value, unlike PX4's republish rule), re-referenced at
     ``INS_ACCn_CALTEMP``/``INS_GYRn_CALTEMP``: this is :func:`firmware_correct_ardupilot`.
+
+    Parameters
+    ----------
+    values : mapping
+        Parameter name → value (e.g. ``read_ardupilot_parm(path)``).
+    reading : array_like
+        Raw reading, (n, 3) or (3,) [m/s², rad/s for the gyro].
+    temperature_c : float or array_like
+        IMU temperature [°C].
+    instance : int
+        n in ``INS_TCALn``.
+    cal_temp_c : float, optional
+        Overrides ``INS_ACCn_CALTEMP`` / ``INS_GYRn_CALTEMP`` [°C].
+    sensor : {"accel", "gyro"}
+        Which calibration applies.
+
+    Returns
+    -------
+    ndarray
+        Corrected reading, float32 [unit of ``reading``].
     """
     return firmware_correct_ardupilot(values, reading, temperature_c, instance, cal_temp_c, sensor=sensor)
 
 
 def ardupilot_vehicle_offsets(values: Mapping[str, float], temperature_c, instance: int = 1,
                               cal_temp_c: float | None = None, sensor: str = "accel") -> np.ndarray:
-    """The offset (n, 3) the vehicle subtracts, comparable with ``cal.offset(T)``: −correct(0)."""
+    """The offset (n, 3) the vehicle subtracts, comparable with ``cal.offset(T)``: −correct(0).
+
+    Parameters
+    ----------
+    values : mapping
+        Parameter name → value.
+    temperature_c : float or array_like
+        IMU temperature [°C].
+    instance, cal_temp_c, sensor
+        As :func:`ardupilot_vehicle_correct`.
+
+    Returns
+    -------
+    ndarray
+        Offset, float32 [m/s², rad/s for the gyro].
+    """
     t = np.atleast_1d(np.asarray(temperature_c, dtype=float))
     return -ardupilot_vehicle_correct(values, np.zeros(3), t, instance, cal_temp_c, sensor)

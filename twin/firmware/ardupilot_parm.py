@@ -58,6 +58,11 @@ def check_ardupilot_cal(cal) -> None:
     float32; exactly 3 axes × 3 terms (ACC1..ACC3 or GYR1..GYR3, no constant), each × 1e6 a finite
     float32 (the stored value); the CALTEMP anchor a finite float32.
 
+    Parameters
+    ----------
+    cal : ArduPilotAccelCal or ArduPilotGyroCal
+        The calibration.
+
     Raises
     ------
     FirmwareValueError
@@ -77,7 +82,20 @@ def check_ardupilot_cal(cal) -> None:
 
 def parm_number(value: float, decimals: int) -> str:
     """Fixed-point text of ``value`` with ``decimals`` digits (the script's format) when that text
-    loads as the float32 of ``value``; otherwise the fewest more decimals of that float32 that do."""
+    loads as the float32 of ``value``; otherwise the fewest more decimals of that float32 that do.
+
+    Parameters
+    ----------
+    value : float
+        The value [any unit].
+    decimals : int
+        Digits after the point tempcal_IMU.py writes.
+
+    Returns
+    -------
+    str
+        The text.
+    """
     held = np.float32(value)
     text = "%.*f" % (decimals, value)
     for d in range(decimals + 1, 80):
@@ -115,8 +133,22 @@ def ardupilot_parm_lines(cals, *, gyro=None, write_caltemp: bool = False,
                          zero_gyro: bool = False) -> list[tuple[str, float, str]]:
     """(NAME, value as ArduPilot holds it, text) per line, in tempcal_IMU.py's order, IMU by IMU.
 
-    ``zero_gyro`` writes ``INS_TCALn_GYR*`` as 0 for an IMU with no gyro calibration given (it
-    erases the board's gyro temperature calibration: only on request).
+    Parameters
+    ----------
+    cals : ArduPilotAccelCal or ArduPilotGyroCal, or an iterable of them
+        Calibrations, several IMUs allowed.
+    gyro : ArduPilotGyroCal or iterable of them, optional
+        The IMUs' gyro calibrations.
+    write_caltemp : bool
+        Also write the CALTEMP anchors [°C].
+    zero_gyro : bool
+        Write ``INS_TCALn_GYR*`` as 0 for an IMU with no gyro calibration given (it erases the
+        board's gyro temperature calibration: only on request).
+
+    Returns
+    -------
+    list of tuple
+        (name, float32 value [°C, or coefficient × 1e6 in m/s²/°C^k or rad/s/°C^k], text).
     """
     lines: list[tuple[str, float, str]] = []
 
@@ -149,7 +181,8 @@ def ardupilot_parm_text(cal, *, gyro=None, write_caltemp: bool = False, zero_gyr
 
     Parameters
     ----------
-    cal : ArduPilotAccelCal or ArduPilotGyroCal, or an iterable of them (several IMUs)
+    cal : ArduPilotAccelCal or ArduPilotGyroCal, or an iterable of them
+        Calibrations, several IMUs allowed.
     gyro : ArduPilotGyroCal or iterable of them, optional
         The IMU's fitted gyro terms (``INS_TCALn_GYR*``); without one, no ``GYR`` line at all.
     write_caltemp : bool
@@ -157,6 +190,11 @@ def ardupilot_parm_text(cal, *, gyro=None, write_caltemp: bool = False, zero_gyr
         the correction; off by default because the board's own calibrations own those values.
     zero_gyro : bool
         Write ``INS_TCALn_GYR*`` as 0 where no gyro calibration is given (erases the board's).
+
+    Returns
+    -------
+    str
+        ``NAME VALUE`` lines.
 
     Raises
     ------
@@ -190,6 +228,15 @@ def verify_ardupilot_parm(text: str, intended_cals, *, gyro=None, write_caltemp:
     on the parsed values (:func:`~twin.firmware.ardupilot.ardupilot_vehicle_offsets`, anchored at
     each calibration's CALTEMP) reproduces the intended float64 offsets within float32
     evaluation error, 10 °C beyond the range included.
+
+    Parameters
+    ----------
+    text : str
+        The ``.parm`` text.
+    intended_cals, gyro, write_caltemp, zero_gyro
+        What the text was written from, as :func:`ardupilot_parm_lines`.
+    source : str
+        Name in messages.
 
     Returns
     -------
@@ -229,7 +276,18 @@ def verify_ardupilot_parm(text: str, intended_cals, *, gyro=None, write_caltemp:
 
 def checked_ardupilot_parm_text(cals, *, gyro=None, write_caltemp: bool = False, zero_gyro: bool = False) -> str:
     """:func:`ardupilot_parm_text` for one or several IMUs, verified by :func:`verify_ardupilot_parm`
-    before it is returned (the text to write atomically)."""
+    before it is returned (the text to write atomically).
+
+    Parameters
+    ----------
+    cals, gyro, write_caltemp, zero_gyro
+        As :func:`ardupilot_parm_text`.
+
+    Returns
+    -------
+    str
+        The verified text.
+    """
     text = ardupilot_parm_text(cals, gyro=gyro, write_caltemp=write_caltemp, zero_gyro=zero_gyro)
     verify_ardupilot_parm(text, cals, gyro=gyro, write_caltemp=write_caltemp, zero_gyro=zero_gyro)
     return text
@@ -238,7 +296,22 @@ def checked_ardupilot_parm_text(cals, *, gyro=None, write_caltemp: bool = False,
 def write_ardupilot_parm(path, cal, **kwargs) -> Path:
     """Write :func:`checked_ardupilot_parm_text` atomically to ``path`` (a ``.parm`` file); return the path.
 
-    Nothing is written when a check refuses the calibration."""
+    Nothing is written when a check refuses the calibration.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output ``.parm`` file.
+    cal : ArduPilotAccelCal or ArduPilotGyroCal, or an iterable of them
+        Calibrations.
+    **kwargs
+        ``gyro``, ``write_caltemp``, ``zero_gyro`` of :func:`ardupilot_parm_text`.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     return atomic_write_text(Path(path), checked_ardupilot_parm_text(cal, **kwargs))
 
 
@@ -247,6 +320,18 @@ def parse_ardupilot_parm(text: str, source: str = "<parm>") -> dict[str, float]:
 
     Lines MAVProxy would skip as invalid (not exactly two fields) raise here instead, naming the
     line, so a broken file is noticed.
+
+    Parameters
+    ----------
+    text : str
+        ``.parm`` text (``NAME VALUE`` or ``NAME,VALUE``; ``#`` comments).
+    source : str
+        Name in messages.
+
+    Returns
+    -------
+    dict of str to float
+        Values as float32 [each parameter's unit].
     """
     values: dict[str, float] = {}
     for number, raw in enumerate(text.splitlines(), 1):
@@ -266,7 +351,18 @@ def parse_ardupilot_parm(text: str, source: str = "<parm>") -> dict[str, float]:
 
 
 def read_ardupilot_parm(path) -> dict[str, float]:
-    """Read and parse a ``.parm`` file (see :func:`parse_ardupilot_parm`)."""
+    """Read and parse a ``.parm`` file (see :func:`parse_ardupilot_parm`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    dict of str to float
+        Values as float32 [each parameter's unit].
+    """
     return parse_ardupilot_parm(read_text(path, "parameter file", CalibrationFileError), str(path))
 
 
@@ -275,8 +371,22 @@ def ardupilot_cal_from_parm(values: Mapping[str, float], instance: int = 1,
     """``INS_TCAL{instance}_*`` back as an :class:`ArduPilotAccelCal` (``ArduPilotGyroCal`` for
     ``sensor="gyro"``), coefficients ÷ 1e6.
 
-    ``cal_temp_c`` overrides ``INS_ACCn_CALTEMP`` / ``INS_GYRn_CALTEMP``; without either, the unset
-    −300 is used.
+    Parameters
+    ----------
+    values : mapping
+        Parameter name → value.
+    instance : int
+        n in ``INS_TCALn``.
+    cal_temp_c : float, optional
+        Overrides ``INS_ACCn_CALTEMP`` / ``INS_GYRn_CALTEMP`` [°C]; without either, the unset
+        −300 is used.
+    sensor : {"accel", "gyro"}
+        Which calibration.
+
+    Returns
+    -------
+    ArduPilotAccelCal or ArduPilotGyroCal
+        TMIN/TMAX [°C], coefficients [m/s²/°C^k or rad/s/°C^k], CALTEMP [°C].
     """
     if sensor not in SENSOR_TERM:
         raise FirmwareValueError(f"sensor {sensor!r} is not one ArduPilot compensates; expected 'accel' or 'gyro'")

@@ -23,14 +23,50 @@ from twin.io import atomic_write_text
 
 
 def lag_alpha(sample_rate_hz: float, tau_s: float) -> float:
-    """α = 1 − exp(−dt/τ) of the die-temperature low-pass, dt = 1/sample_rate_hz."""
+    """α = 1 − exp(−dt/τ) of the die-temperature low-pass, dt = 1/sample_rate_hz.
+
+    Parameters
+    ----------
+    sample_rate_hz : float
+        Update rate [Hz].
+    tau_s : float
+        Die-temperature time constant τ [s].
+
+    Returns
+    -------
+    float
+        α [1].
+
+    References
+    ----------
+    Exact discretisation of a first-order lag for a held input (zero-order hold), a standard result.
+    """
     if not (sample_rate_hz > 0 and tau_s > 0 and math.isfinite(sample_rate_hz) and math.isfinite(tau_s)):
         raise FirmwareCalError(f"sample_rate_hz and tau_s must be positive and finite, got {sample_rate_hz}, {tau_s}")
     return -math.expm1(-1.0 / (sample_rate_hz * tau_s))  # expm1: exact for dt ≪ τ
 
 
 def die_temperature_lag(temperature_c, sample_rate_hz: float, tau_s: float) -> np.ndarray:
-    """The header's lag filter in float64: T_die[0] = T_meas[0]; T_die += α (T_meas − T_die)."""
+    """The header's lag filter in float64: T_die[0] = T_meas[0]; T_die += α (T_meas − T_die).
+
+    Parameters
+    ----------
+    temperature_c : array_like
+        Measured temperature per update [°C].
+    sample_rate_hz : float
+        Update rate [Hz].
+    tau_s : float
+        Die-temperature time constant τ [s].
+
+    Returns
+    -------
+    ndarray
+        Die temperature estimate [°C].
+
+    References
+    ----------
+    Exact zero-order-hold discretisation of τ dT_die/dt = T_meas − T_die (:func:`lag_alpha`).
+    """
     t = np.asarray(temperature_c, dtype=float)
     alpha = lag_alpha(sample_rate_hz, tau_s)
     if t.size == 0:
@@ -174,5 +210,18 @@ static inline float {prefix}_lag_update({prefix}_lag_state *state, float t_meas_
 
 
 def write_c_header(path, cal, sample_rate_hz: float, tau_s: float | None = None, **kwargs) -> Path:
-    """Write :func:`c_header` atomically to ``path`` (a ``.h`` file); return the path."""
+    """Write :func:`c_header` atomically to ``path`` (a ``.h`` file); return the path.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output ``.h`` file.
+    cal, sample_rate_hz, tau_s, **kwargs
+        As :func:`c_header` (rate [Hz], τ [s]).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     return atomic_write_text(Path(path), c_header(cal, sample_rate_hz, tau_s, **kwargs))

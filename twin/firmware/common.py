@@ -78,7 +78,23 @@ class ClampedPolynomial:
         return np.array(self.coefficients, dtype=float)
 
     def offset(self, temperature_c) -> np.ndarray:
-        """Offset at each temperature: (n, n_axes) for an array, (n_axes,) for a scalar."""
+        """Offset at each temperature: (n, n_axes) for an array, (n_axes,) for a scalar.
+
+        Parameters
+        ----------
+        temperature_c : float or array_like
+            Temperature [°C], clipped to [tmin_c, tmax_c].
+
+        Returns
+        -------
+        ndarray
+            Offset per axis [offset unit, e.g. m/s² or rad/s].
+
+        References
+        ----------
+        The clamped polynomial of PX4 ``TemperatureCompensation::calc_thermal_offsets_3D`` and
+        ArduPilot ``TCal::correct_sensor`` (module docstring), evaluated by Horner's rule in float64.
+        """
         t = np.asarray(temperature_c, dtype=float)
         dt = np.clip(t, self.tmin_c, self.tmax_c) - self.tref_c
         c = self.coefficient_array
@@ -89,7 +105,20 @@ class ClampedPolynomial:
 
 
 def as_temperature(temperature_c, name: str = "temperature_c") -> np.ndarray:
-    """1-D float64 temperatures, all finite, at least 4 of them (a cubic needs 4 points)."""
+    """1-D float64 temperatures, all finite, at least 4 of them (a cubic needs 4 points).
+
+    Parameters
+    ----------
+    temperature_c : array_like
+        Temperature per sample [°C].
+    name : str
+        Name in messages.
+
+    Returns
+    -------
+    ndarray
+        The temperatures [°C].
+    """
     t = np.asarray(temperature_c, dtype=float)
     if t.ndim != 1:
         raise FirmwareCalError(f"{name} must be 1-D (one temperature per sample), got shape {t.shape}")
@@ -101,7 +130,24 @@ def as_temperature(temperature_c, name: str = "temperature_c") -> np.ndarray:
 
 
 def as_samples(values, n: int, name: str, axes: int | None = 3) -> np.ndarray:
-    """Float64 samples matching ``n`` temperatures: (n, axes), or (n,)/(n, k) when axes is None."""
+    """Float64 samples matching ``n`` temperatures: (n, axes), or (n,)/(n, k) when axes is None.
+
+    Parameters
+    ----------
+    values : array_like
+        Samples [their unit, e.g. m/s² or rad/s].
+    n : int
+        Number of temperatures.
+    name : str
+        Name in messages.
+    axes : int or None
+        Columns required.
+
+    Returns
+    -------
+    ndarray
+        The samples [unit of ``values``].
+    """
     v = np.asarray(values, dtype=float)
     if axes is not None and v.shape != (n, axes):
         raise FirmwareCalError(f"{name} must have shape ({n}, {axes}) to match temperature_c, got {v.shape}")
@@ -118,6 +164,18 @@ def check_float32(value, name: str) -> float:
     Why: both firmwares store parameters as 32-bit floats, so a value that is finite in float64 but
     beyond ±3.4028235e38 (e.g. 1e45) loads as ±inf. Refused, never clamped: a clamped coefficient
     would be a different calibration.
+
+    Parameters
+    ----------
+    value : float
+        The value [any unit].
+    name : str
+        The parameter it is written as.
+
+    Returns
+    -------
+    float
+        ``value`` as a Python float (float64) [unit of ``value``].
 
     Raises
     ------
@@ -161,7 +219,22 @@ def check_temperature_range(tmin_c, tmax_c, tref_c, prefix: str) -> None:
 
 
 def check_instance(instance, first: int, last: int, label: str) -> int:
-    """``instance`` as an int in ``first..last``; ``label`` is a template such as ``TC_A{}``."""
+    """``instance`` as an int in ``first..last``; ``label`` is a template such as ``TC_A{}``.
+
+    Parameters
+    ----------
+    instance : int
+        Sensor instance.
+    first, last : int
+        Instances the firmware has parameters for.
+    label : str
+        Parameter prefix template, for messages.
+
+    Returns
+    -------
+    int
+        The instance.
+    """
     if isinstance(instance, bool) or not isinstance(instance, numbers.Integral):
         raise FirmwareValueError(f"{label.format('n')} instance {instance!r} is not an integer; "
                                  f"expected {first}..{last}")
@@ -178,6 +251,18 @@ def check_device_id_px4(device_id, name: str) -> int:
     ``TemperatureCompensation::set_sensor_id`` (PX4/PX4-Autopilot,
     src/modules/temperature_compensation/TemperatureCompensation.cpp) maps a sensor to the slot
     whose ``TC_An_ID`` equals its ``device_id``; no sensor has device id 0.
+
+    Parameters
+    ----------
+    device_id : int
+        The sensor's device id.
+    name : str
+        The parameter it is written as.
+
+    Returns
+    -------
+    int
+        The device id.
     """
     if isinstance(device_id, bool) or not isinstance(device_id, numbers.Integral):
         raise FirmwareValueError(f"{name} = {device_id!r} is not an integer; expected the sensor's device id "
@@ -210,6 +295,11 @@ def check_coefficients(coefficients, n_terms: int, name, method: str, *, exact: 
         What the firmware applies, for the message (e.g. ``PX4 applies X0..X3 (degree <= 3)``).
     exact : bool
         Refuse rows shorter than ``n_terms`` too (ArduPilot has exactly three terms).
+
+    Returns
+    -------
+    ndarray
+        Coefficients, shape (3, n_terms) [offset unit/°C^k].
     """
     rows = list(coefficients)
     if len(rows) != 3:
@@ -227,7 +317,15 @@ def check_coefficients(coefficients, n_terms: int, name, method: str, *, exact: 
 
 def check_polynomial(poly: ClampedPolynomial, where: str) -> None:
     """A clamped polynomial of any degree a float32 evaluator can hold: TMIN < TMAX, TREF and
-    every coefficient finite float32 (the JSON and C-header writers, which have no degree limit)."""
+    every coefficient finite float32 (the JSON and C-header writers, which have no degree limit).
+
+    Parameters
+    ----------
+    poly : ClampedPolynomial
+        The polynomial.
+    where : str
+        Prefix of messages.
+    """
     check_temperature_range(poly.tmin_c, poly.tmax_c, poly.tref_c, where + " ")
     for axis, row in enumerate(poly.coefficients):
         for k, c in enumerate(row):
@@ -242,8 +340,14 @@ def applied_vs_ideal(applied, ideal, mask=None) -> dict[str, dict[str, float]]:
     Parameters
     ----------
     applied, ideal : (n, 3) arrays
+        Offsets applied and ideal [offset unit, e.g. m/s²].
     mask : (n,) bool array, optional
         Rows to include (e.g. after PX4's first publication).
+
+    Returns
+    -------
+    dict
+        Per axis ``{"max_abs": ..., "rms": ...}`` [offset unit].
     """
     diff = np.asarray(applied, dtype=float) - np.asarray(ideal, dtype=float)
     if mask is not None:
@@ -260,12 +364,33 @@ def float32_text(value: float) -> str:
 
     Why: the digits are the exact float32 value, so text → double → float32 gives it back with
     no double rounding (QGroundControl ``Fact::rawValueStringFullPrecision`` also uses 18).
+
+    Parameters
+    ----------
+    value : float
+        The value [any unit].
+
+    Returns
+    -------
+    str
+        Its float32 value as text.
     """
     return "%.18g" % float(np.float32(value))
 
 
 def c_float(value: float) -> str:
-    """A C ``float`` literal of the float32 nearest ``value`` (9 significant digits round-trip)."""
+    """A C ``float`` literal of the float32 nearest ``value`` (9 significant digits round-trip).
+
+    Parameters
+    ----------
+    value : float
+        The value [any unit].
+
+    Returns
+    -------
+    str
+        E.g. ``"0.5f"``.
+    """
     if not np.isfinite(np.float32(value)):
         raise FirmwareCalError(f"{value!r} has no finite float32 value to write into C")
     text = "%.9g" % float(np.float32(value))
@@ -275,7 +400,13 @@ def c_float(value: float) -> str:
 
 
 def generator_name() -> str:
-    """``tde-twin X.Y.Z`` for the comment heading a generated file (no version in a source tree)."""
+    """``tde-twin X.Y.Z`` for the comment heading a generated file (no version in a source tree).
+
+    Returns
+    -------
+    str
+        Name and installed version.
+    """
     try:
         return f"tde-twin {version('tde-twin')}"
     except PackageNotFoundError:

@@ -22,7 +22,7 @@ float32 lag without compensated summation has a dead band of ulp(T)/(2(1 − e))
 from __future__ import annotations
 
 from twin.firmware.common import AXES, G0_M_S2, FirmwareCalError, generator_name
-from twin.firmware.lag_header import c_literal, hold_coefficients_c
+from twin.firmware.hold_coefficients import c_literal, hold_coefficients_c
 
 SUPPORTED = ("thermal_lag", "stress_relaxation", "thermal_gradient", "thermal_hysteresis", "warmup")
 MG = G0_M_S2 * 1e-3  # 1 mg in m/s²
@@ -79,6 +79,20 @@ def composed_c_header(params: dict, *, prefix: str = "twin_composed", real: str 
     correction [m/s²] the firmware subtracts, per axis; the first call after ``{prefix}_init``, or a
     step that is negative or not finite, starts every state in equilibrium at T (as ``twin apply``
     starts a run); a non-finite T repeats the previous correction.
+
+    Parameters
+    ----------
+    params : dict
+        The stored model: ``reference_c`` [°C] and per axis the effects with their parameters.
+    prefix : str
+        Prefix of every C name.
+    real : {"float", "double"}
+        C type of the arithmetic.
+
+    Returns
+    -------
+    str
+        The header text.
     """
     if real not in ("float", "double"):
         raise FirmwareCalError(f"real must be 'float' or 'double', got {real!r}")

@@ -28,70 +28,38 @@ from pathlib import Path
 
 from twin.firmware.ardupilot import ArduPilotAccelCal, ArduPilotGyroCal
 from twin.firmware.ardupilot_parm import check_ardupilot_cal
-from twin.firmware.common import AXES, CalibrationFileError, ClampedPolynomial, check_polynomial
+from twin.firmware.common import AXES, CalibrationFileError
+from twin.firmware.json_record import KIND, KIND_GYRO, REFERENCES, SCHEMA_VERSION, cal_record
 from twin.firmware.polynomial import HeldoutPolynomialFit
 from twin.firmware.px4 import Px4AccelCal, Px4GyroCal
 from twin.firmware.px4_params import check_px4_cal
 from twin.io import atomic_write_text, read_json
-
-SCHEMA_VERSION = 1
-KIND = "accel_temperature_calibration"
-KIND_GYRO = "gyro_temperature_calibration"
-FORMULA = "offset = sum_k c[k] * (clip(T, tmin, tmax) - tref)^k; corrected = raw - offset"
-REFERENCES = {
-    "px4": "PX4/PX4-Autopilot Tools/process_sensor_caldata.py; "
-           "src/modules/temperature_compensation/TemperatureCompensation.cpp",
-    "ardupilot": "ArduPilot/ardupilot Tools/scripts/tempcal_IMU.py; "
-                 "libraries/AP_InertialSensor/AP_InertialSensor_tempcal.cpp",
-    "polynomial_heldout": "tde-twin twin/firmware/polynomial.py (order chosen on interleaved time blocks)",
-}
-
-
-def _units(powers, unit: str = "m/s^2") -> list[str]:
-    return [unit if k == 0 else (f"{unit}/degC" if k == 1 else f"{unit}/degC^{k}") for k in powers]
-
-
-def _axes_block(per_axis, powers, unit: str = "m/s^2") -> dict:
-    return {AXES[i]: {"powers": list(powers), "values": [float(v) for v in c], "units": _units(powers, unit)}
-            for i, c in enumerate(per_axis)}
-
-
-def _poly_block(poly: ClampedPolynomial) -> dict:
-    return {"formula": FORMULA, "tmin": poly.tmin_c, "tmax": poly.tmax_c, "tref": poly.tref_c,
-            "coefficients": {AXES[i]: [float(v) for v in c] for i, c in enumerate(poly.coefficients)}}
+from twin.results import to_json
 
 
 def cal_to_dict(cal, provenance: Mapping | None = None) -> dict:
     """The JSON document (as a dict) for a PX4 or ArduPilot accel/gyro calibration or a HeldoutPolynomialFit.
+
+    Parameters
+    ----------
+    cal : Px4AccelCal, Px4GyroCal, ArduPilotAccelCal, ArduPilotGyroCal or HeldoutPolynomialFit
+        The calibration.
+    provenance : mapping, optional
+        Caller-supplied record; must be plain JSON.
+
+    Returns
+    -------
+    dict
+        Schema version, kind, method, temperatures [°C], coefficients with their units (m/s^2 or
+        rad/s per °C^k), method parameters, the firmware polynomial and the provenance.
 
     Raises
     ------
     FirmwareValueError
         A value the firmware could not hold (checked before the document is built).
     """
-    kind, unit = (KIND_GYRO, "rad/s") if isinstance(cal, (Px4GyroCal, ArduPilotGyroCal)) else (KIND, "m/s^2")
-    if isinstance(cal, (Px4AccelCal, Px4GyroCal)):
-        check_px4_cal(cal, require_device_id=False)
-        method, tref, powers, coeffs = "px4", cal.tref_c, range(4), cal.x
-        extra = {"instance": cal.instance, "device_id": cal.device_id}
-        if isinstance(cal, Px4AccelCal):
-            extra["median_m_s2"] = None if cal.median_m_s2 is None else list(cal.median_m_s2)
-    elif isinstance(cal, (ArduPilotAccelCal, ArduPilotGyroCal)):
-        check_ardupilot_cal(cal)
-        method, tref, powers, coeffs = "ardupilot", cal.polynomial.tref_c, range(1, 4), cal.terms
-        extra = {"instance": cal.instance, "cal_temp_c": cal.cal_temp_c,
-                 "data_tmin_c": cal.data_tmin_c, "data_tmax_c": cal.data_tmax_c, "parm_scale_factor": 1.0e6}
-    elif isinstance(cal, HeldoutPolynomialFit):
-        check_polynomial(cal.polynomial, "polynomial_heldout")
-        method, tref, powers, coeffs = "polynomial_heldout", cal.tref_c, range(cal.order + 1), cal.coefficients
-        extra = {"order": cal.order, "cv_rmse_m_s2": list(cal.cv_rmse), "cv_rmse_se_m_s2": list(cal.cv_rmse_se),
-                 "folds": cal.folds, "blocks_per_fold": cal.blocks_per_fold}
-    else:
-        raise CalibrationFileError(f"cannot write a {type(cal).__name__} as a calibration JSON")
-    doc = {"schema_version": SCHEMA_VERSION, "kind": kind, "method": method, "reference": REFERENCES[method],
-           "temperature_c": {"tmin": cal.tmin_c, "tmax": cal.tmax_c, "tref": tref},
-           "coefficients": _axes_block(coeffs, powers, unit), "method_parameters": extra,
-           "firmware_polynomial": _poly_block(cal.polynomial), "provenance": dict(provenance or {})}
+    # the record (twin.firmware.json_record) holds the layout; only the caller's provenance is added here
+    doc = {**to_json(cal_record(cal)), "provenance": dict(provenance or {})}
     try:
         json.dumps(doc, allow_nan=False)
     except (TypeError, ValueError) as exc:
@@ -105,10 +73,17 @@ def write_json_cal(path, cal, provenance: Mapping | None = None) -> Path:
     Parameters
     ----------
     path : path-like
+        Output ``.json`` file.
     cal : Px4AccelCal, ArduPilotAccelCal or HeldoutPolynomialFit
+        The calibration (the gyro ones too).
     provenance : mapping, optional
         Caller-supplied record (input file hashes, software version, validation figures); must be
         plain JSON.
+
+    Returns
+    -------
+    Path
+        The file written.
 
     Raises
     ------
@@ -120,7 +95,20 @@ def write_json_cal(path, cal, provenance: Mapping | None = None) -> Path:
 
 
 def cal_from_dict(doc: Mapping, source: str = "<json>"):
-    """Rebuild the calibration object from a document written by :func:`cal_to_dict`."""
+    """Rebuild the calibration object from a document written by :func:`cal_to_dict`.
+
+    Parameters
+    ----------
+    doc : mapping
+        The parsed JSON document.
+    source : str
+        Name in messages.
+
+    Returns
+    -------
+    Px4AccelCal, Px4GyroCal, ArduPilotAccelCal, ArduPilotGyroCal or HeldoutPolynomialFit
+        The calibration, checked as the firmware would hold it.
+    """
     if not isinstance(doc, Mapping):
         raise CalibrationFileError(f"{source}: expected a JSON object, got {type(doc).__name__}")
     if doc.get("schema_version") != SCHEMA_VERSION or doc.get("kind") not in (KIND, KIND_GYRO):
@@ -157,7 +145,19 @@ def cal_from_dict(doc: Mapping, source: str = "<json>"):
 
 @dataclass(frozen=True)
 class JsonCalibration:
-    """A calibration JSON read back: the calibration object, its method and the provenance."""
+    """A calibration JSON read back: the calibration object, its method and the provenance.
+
+    Attributes
+    ----------
+    cal : object
+        The calibration (:func:`cal_from_dict`).
+    method : str
+        ``"px4"``, ``"ardupilot"`` or ``"polynomial_heldout"``.
+    schema_version : int
+        Version of the document's schema.
+    provenance : dict
+        The caller's record.
+    """
 
     cal: object
     method: str
@@ -166,7 +166,18 @@ class JsonCalibration:
 
 
 def read_json_cal(path) -> JsonCalibration:
-    """Read a calibration JSON written by :func:`write_json_cal`."""
+    """Read a calibration JSON written by :func:`write_json_cal`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    JsonCalibration
+        The calibration, its method, schema version and provenance.
+    """
     path = Path(path)
     doc = read_json(path, "calibration JSON", CalibrationFileError)
     cal = cal_from_dict(doc, str(path))

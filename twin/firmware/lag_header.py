@@ -13,7 +13,8 @@ Over a step of dt with h = dt/τ and e = exp(−h) it is the recursion
 
     y[n] = e·y[n−1] + b0·u[n] + b1·u[n−1],  b0 = 1 − (1 − e)/h,  b1 = (1 − e)/h − e
 
-(integrate τ dy/dt = u − y with u linear over the step). Logged clocks jitter (0.502–0.511 s
+(integrate τ dy/dt = u − y with u linear over the step; :mod:`twin.firmware.hold_coefficients`
+writes its C). Logged clocks jitter (0.502–0.511 s
 on a nominal 0.505 s step in the TofuPilot log), so the header computes (e, b0, b1) from the
 measured step on every call instead of baking in one sample rate.
 
@@ -28,30 +29,17 @@ pairs, so that a float32 build stays within a few float32 ulps of the float64 co
 
 from __future__ import annotations
 
-import math
 import re
 from pathlib import Path
 
 import numpy as np
 
-from twin.firmware.common import AXES, G0_M_S2, FirmwareCalError, c_float, generator_name
+from twin.firmware.common import AXES, G0_M_S2, FirmwareCalError, generator_name
+from twin.firmware.hold_coefficients import c_literal, hold_coefficients_c
 from twin.firmware.lag_params import check_lag_aware_params, finite_number
 from twin.io import atomic_write_text
 
 MG_TO_M_S2 = G0_M_S2 * 1e-3  # 1 mg in m/s²
-# Below this h = dt/τ the header takes b0, b1 from their Taylor series: 1 − (1 − e)/h cancels
-# there, losing log2(1/b0) bits (3 of float32's 24 at h = 0.25, all of them for h < 1e-7).
-SERIES_BELOW_H = 0.25
-# Series terms h^1..h^K kept: the first one left out is ≤ 2h^K/(K + 2)! of b0 at h = 0.25, i.e.
-# 3e-10 (float32 eps 1.2e-7) for K = 7 and 2e-20 (float64 eps 2.2e-16) for K = 13.
-SERIES_TERMS = {"float": 7, "double": 13}
-
-
-def c_literal(value: float, real: str) -> str:
-    if real == "float":
-        return c_float(value)
-    text = repr(float(value))
-    return text if any(ch in text for ch in ".e") else text + ".0"
 
 
 def _table(rows, real: str, notes) -> str:
@@ -79,44 +67,6 @@ def _split(value: float, real: str) -> tuple[float, float]:
         return float(value), 0.0
     hi = float(np.float32(value))
     return hi, float(np.float32(value - hi))
-
-
-def series_text(coefficients, real: str) -> str:
-    """``h * (c1 + h * (c2 + ...))``: Σ_k c_k h^k by Horner."""
-    expr = c_literal(coefficients[-1], real)
-    for c in reversed(coefficients[:-1]):
-        expr = f"{c_literal(c, real)} + h * ({expr})"
-    return f"h * ({expr})"
-
-
-def hold_coefficients_c(prefix: str, real: str) -> str:
-    """C of ``{prefix}_hold_coefficients(h, &b0, &b1)``: the first-order-hold coefficients over a
-    step h = dt/τ, by their Taylor series where the closed form cancels (shared by every header)."""
-    n_terms = SERIES_TERMS[real]
-    fact = [math.factorial(k + 1) for k in range(n_terms + 1)]
-    b0_series = series_text([(-1) ** (k + 1) / fact[k] for k in range(1, n_terms + 1)], real)
-    b1_series = series_text([(-1) ** (k + 1) * k / fact[k] for k in range(1, n_terms + 1)], real)
-    (exp_fn, expm1_fn), r = ("expf", "expm1f") if real == "float" else ("exp", "expm1"), f"{prefix}_real"
-    return f"""/* First-order-hold coefficients over a step of h = dt/tau >= 0 (+inf allowed):
- * b0 = 1 - (1 - e)/h, b1 = (1 - e)/h - e, e = exp(-h). Below h = {SERIES_BELOW_H:g}, 1 - (1 - e)/h
- * cancels (b0 ~ h/2, (1 - e)/h ~ 1), so the Taylor series, which keep full relative precision down
- * to h = 0 (b0 = b1 = 0 there: the lag holds):
- *   b0 = sum_k (-1)^(k+1) h^k/(k+1)! = h/2 - h^2/6 + h^3/24 - ...
- *   b1 = sum_k (-1)^(k+1) k h^k/(k+1)! = h/2 - h^2/3 + h^3/8 - ...
- * Above it, expm1 gives 1 - e without the cancellation of 1 - exp(-h), and b1 = q - e,
- * q = (1 - e)/h > e, has none either. */
-static inline void {prefix}_hold_coefficients({r} h, {r} *b0, {r} *b1)
-{{
-    if (h < ({r}){c_literal(SERIES_BELOW_H, real)}) {{
-        *b0 = {b0_series};
-        *b1 = {b1_series};
-    }} else {{
-        const {r} q = -{expm1_fn}(-h) / h;
-        *b0 = ({r})1 - q;
-        *b1 = q - {exp_fn}(-h);
-    }}
-}}
-"""
 
 
 def lag_aware_c_header(params: dict, sample_rate_hz: float | None = None, *, prefix: str = "twin_lag",
@@ -412,5 +362,18 @@ static inline int {prefix}_update({prefix}_state *state, {r} temperature_c, uint
 
 
 def write_lag_aware_c_header(path, params: dict, sample_rate_hz: float | None = None, **kwargs) -> Path:
-    """Write :func:`lag_aware_c_header` atomically to ``path`` (a ``.h`` file); return the path."""
+    """Write :func:`lag_aware_c_header` atomically to ``path`` (a ``.h`` file); return the path.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output ``.h`` file.
+    params, sample_rate_hz, **kwargs
+        As :func:`lag_aware_c_header` (rate [Hz]).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     return atomic_write_text(Path(path), lag_aware_c_header(params, sample_rate_hz, **kwargs))

@@ -54,7 +54,24 @@ def lag_coefficients_dt(dt_s: float, tau_s: float) -> tuple[float, float, float]
 
 
 def lag_coefficients(sample_rate_hz: float, tau_s: float) -> tuple[float, float, float]:
-    """(e, b0, b1) of :func:`lag_coefficients_dt` at dt = 1/sample_rate_hz; τ = 0 gives (0, 1, 0)."""
+    """(e, b0, b1) of :func:`lag_coefficients_dt` at dt = 1/sample_rate_hz; τ = 0 gives (0, 1, 0).
+
+    Parameters
+    ----------
+    sample_rate_hz : float
+        Update rate [Hz].
+    tau_s : float
+        Time constant [s], ≥ 0.
+
+    Returns
+    -------
+    tuple of float
+        (e, b0, b1) [1].
+
+    References
+    ----------
+    Exact first-order-hold discretisation of τ dy/dt = u − y (module docstring), a standard result.
+    """
     if not (math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
         raise FirmwareCalError(f"sample_rate_hz must be positive and finite, got {sample_rate_hz}")
     if not (math.isfinite(tau_s) and tau_s >= 0):
@@ -63,6 +80,20 @@ def lag_coefficients(sample_rate_hz: float, tau_s: float) -> tuple[float, float,
 
 
 def finite_number(value, what: str) -> float:
+    """``value`` as a float, refused (:class:`FirmwareCalError`) unless a finite real number.
+
+    Parameters
+    ----------
+    value : float
+        The value [any unit].
+    what : str
+        Name in messages.
+
+    Returns
+    -------
+    float
+        The value [unit of ``value``].
+    """
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(float(value)):
         raise FirmwareCalError(f"{what} must be a finite number, got {value!r}")
     return float(value)
@@ -81,6 +112,17 @@ def check_lag_aware_params(params: dict) -> dict:
 
     Missing or None ``tau_die_s`` means no die lag (T_die = T) and missing or None ``tau_rate_s``
     no rate term, as ``twin.calibration.deploy.correction_g`` reads them. Raises FirmwareCalError.
+
+    Parameters
+    ----------
+    params : dict
+        The stored method.
+
+    Returns
+    -------
+    dict
+        ``reference_c`` [°C], ``coef_mg`` [mg/°C^k] per axis, ``tau_die_s`` and ``tau_rate_s`` [s]
+        per axis, ``rate_mg_per_c`` [mg/°C] per axis.
     """
     if not isinstance(params, dict):
         raise FirmwareCalError(f"params must be a dict (a lag-aware method), got {type(params).__name__}")

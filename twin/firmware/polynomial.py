@@ -7,8 +7,8 @@ result is exported through the JSON and C-header writers. PX4 parameters hold X0
 ``twin.firmware.px4_params.px4_cal_from_polynomial`` turns a fit of order ≤ 3 into ``TC_A``/``TC_G``
 parameters and refuses a higher order rather than dropping its terms.
 
-Folds: the record is cut into ``folds × blocks_per_fold`` contiguous time blocks and block b is
-held out in fold ``b % folds``. Contiguous blocks keep neighbouring, correlated samples together
+Folds (:func:`twin.arrays.interleaved_folds`, the project's one fold builder): the record is cut
+into ``folds × blocks_per_fold`` contiguous time blocks and block b is held out in fold ``b % folds``. Contiguous blocks keep neighbouring, correlated samples together
 (random splits would leak them); interleaving gives every fold the whole temperature programme.
 """
 
@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twin.arrays import interleaved_folds
 from twin.firmware.common import (
     ClampedPolynomial,
     FirmwareCalError,
@@ -44,6 +45,7 @@ class HeldoutPolynomialFit:
     cv_rmse_se : tuple of float
         Standard error of that mean over the folds.
     folds, blocks_per_fold : int
+        Cross-validation layout (module docstring).
     """
 
     order: int
@@ -62,18 +64,19 @@ class HeldoutPolynomialFit:
         return ClampedPolynomial(self.tmin_c, self.tmax_c, self.tref_c, self.coefficients)
 
     def offset_m_s2(self, temperature_c) -> np.ndarray:
-        """Predicted offset (n, n_axes), in the unit of the fitted y (m/s² for firmware export)."""
+        """Predicted offset (n, n_axes), in the unit of the fitted y (m/s² for firmware export).
+
+        Parameters
+        ----------
+        temperature_c : float or array_like
+            Temperature [°C], clamped to the fitted span.
+
+        Returns
+        -------
+        ndarray
+            Offset [unit of y].
+        """
         return self.polynomial.offset(temperature_c)
-
-
-def interleaved_folds(time_s: np.ndarray, folds: int, blocks_per_fold: int) -> np.ndarray:
-    """Fold index (0..folds−1) of each sample: contiguous time blocks dealt round-robin."""
-    order = np.argsort(np.asarray(time_s, dtype=float), kind="stable")
-    n_blocks = folds * blocks_per_fold
-    block_of_rank = (np.arange(order.size) * n_blocks) // order.size
-    fold = np.empty(order.size, dtype=np.int64)
-    fold[order] = block_of_rank % folds
-    return fold
 
 
 def _fit(dt: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
@@ -104,6 +107,7 @@ def fit_polynomial_heldout(time_s, temperature_c, y, *, max_order: int = 5, fold
     Returns
     -------
     HeldoutPolynomialFit
+        Chosen order, coefficients [unit of y/°C^k], span [°C] and held-out RMSE [unit of y].
 
     Notes
     -----

@@ -1,5 +1,6 @@
-"""PX4 ``.params`` files in QGroundControl's format: check, write, verify, parse, and turn back
-into a calibration.
+"""PX4 ``.params`` files in QGroundControl's format: check, write, and verify the text against
+the intended calibration before it is written (parsing a file back, and turning its parameters
+back into a calibration, is :mod:`twin.firmware.px4_param_file`).
 
 Format (QGroundControl ``ParameterManager::writeParametersToStream`` / ``readParametersFromStream``,
 repo mavlink/qgroundcontrol): ``#`` comment lines — ``# Onboard parameters for Vehicle 1``, ``#``,
@@ -21,8 +22,7 @@ formula before it is returned for writing.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -46,38 +46,18 @@ from twin.firmware.px4 import (
     Px4AccelCal,
     Px4GyroCal,
     check_sensor,
-    firmware_offset_px4,
 )
-from twin.io import atomic_write_text, read_text
+from twin.firmware.px4_param_file import (
+    MAV_PARAM_TYPE_INT32,
+    MAV_PARAM_TYPE_REAL32,
+    Px4ParamFile,
+    parse_px4_params,
+)
+from twin.firmware.px4_vehicle import firmware_offset_px4
+from twin.io import atomic_write_text
 
-MAV_PARAM_TYPE_INT32 = 6
-MAV_PARAM_TYPE_REAL32 = 9
-MAV_PARAM_TYPE_REAL64 = 10
 HEADER_LAST = "# Vehicle-Id Component-Id Name Value Type"
 Px4Cal = Px4AccelCal | Px4GyroCal
-
-
-@dataclass(frozen=True)
-class Px4ParamFile:
-    """A parsed ``.params`` file: values as the firmware holds them, with their MAVLink types.
-
-    Attributes
-    ----------
-    values : dict
-        NAME → int (integer types) or float (REAL32 values are rounded to float32, as stored).
-    types : dict
-        NAME → MAV_PARAM_TYPE.
-    vehicle_id, component_id : int
-        From the rows (all rows must agree).
-    comments : tuple of str
-        The ``#`` lines, in order.
-    """
-
-    values: dict
-    types: dict
-    vehicle_id: int
-    component_id: int
-    comments: tuple[str, ...]
 
 
 def px4_cal_from_polynomial(poly: ClampedPolynomial, *, instance: int, device_id: int,
@@ -86,6 +66,20 @@ def px4_cal_from_polynomial(poly: ClampedPolynomial, *, instance: int, device_id
 
     Degrees below 3 are padded with zero terms; a higher degree is refused, never truncated
     (PX4 evaluates X0..X3 only, so dropping terms would load a different correction).
+
+    Parameters
+    ----------
+    poly : ClampedPolynomial
+        The polynomial [°C; m/s² or rad/s per °C^k], or a fit object holding one.
+    instance, device_id : int
+        n in ``TC_An``/``TC_Gn`` (0..3); the sensor's device id.
+    sensor : {"accel", "gyro"}
+        Which parameters.
+
+    Returns
+    -------
+    Px4AccelCal or Px4GyroCal
+        The calibration.
 
     Raises
     ------
@@ -111,6 +105,13 @@ def check_px4_cal(cal, *, require_device_id: bool = True) -> None:
     ``require_device_id`` is False, e.g. for a JSON record); TMIN < TMAX, TREF finite; 3 axes of
     at most 4 coefficients (X0..X3), each a finite float32.
 
+    Parameters
+    ----------
+    cal : Px4AccelCal or Px4GyroCal
+        The calibration.
+    require_device_id : bool
+        Refuse device id 0 (PX4 would never apply the calibration).
+
     Raises
     ------
     FirmwareValueError
@@ -130,6 +131,18 @@ def check_px4_cal(cal, *, require_device_id: bool = True) -> None:
 
 def split_px4_cals(cals, gyro=None) -> tuple[list, list]:
     """(accel cals, gyro cals) from ``cals`` (one or an iterable, either kind) and ``gyro``.
+
+    Parameters
+    ----------
+    cals : Px4AccelCal, Px4GyroCal, or an iterable of them
+        Calibrations of either kind.
+    gyro : Px4GyroCal or iterable of them, optional
+        More gyro calibrations.
+
+    Returns
+    -------
+    tuple of list
+        The accel calibrations and the gyro calibrations, each in the order given.
 
     Raises
     ------
@@ -162,6 +175,16 @@ def px4_param_values(cal: Px4Cal) -> dict[str, tuple[int | float, int]]:
 
     ``TC_xn_ID`` is the int32 with the device id's 32 bits (uint32 in the firmware, INT32 parameter);
     the others are the float32 nearest the calibration's value.
+
+    Parameters
+    ----------
+    cal : Px4AccelCal or Px4GyroCal
+        The calibration (checked by :func:`check_px4_cal`).
+
+    Returns
+    -------
+    dict of str to tuple
+        Parameter name → (value [°C, or m/s² or rad/s per °C^k], MAV_PARAM_TYPE).
     """
     check_px4_cal(cal)
     p = cal.prefix
@@ -178,7 +201,22 @@ def px4_param_values(cal: Px4Cal) -> dict[str, tuple[int | float, int]]:
 def px4_param_rows(cals, include_enable: bool = True, *, gyro=None) -> list[tuple[str, str, int]]:
     """(NAME, VALUE text, TYPE) rows: ``TC_A_ENABLE`` and the accel blocks in process_sensor_caldata.py's
     order, then ``TC_G_ENABLE`` and the gyro blocks sorted by name as the script writes them. A
-    sensor kind without a calibration gets no row at all. Every value is checked first."""
+    sensor kind without a calibration gets no row at all. Every value is checked first.
+
+    Parameters
+    ----------
+    cals : Px4AccelCal, Px4GyroCal, or an iterable of them
+        One calibration per instance and sensor kind.
+    include_enable : bool
+        Write ``TC_A_ENABLE``/``TC_G_ENABLE`` 1 for each kind written.
+    gyro : Px4GyroCal or iterable of them, optional
+        More gyro calibrations.
+
+    Returns
+    -------
+    list of tuple
+        (name, value text as the firmware holds it, MAV_PARAM_TYPE) per row.
+    """
     accel, gyros = split_px4_cals(cals, gyro)
     rows: list[tuple[str, str, int]] = []
     for base, kind in (("TC_A", accel), ("TC_G", gyros)):
@@ -214,6 +252,11 @@ def px4_params_text(cals, *, gyro=None, vehicle_id: int = 1, component_id: int =
         Extra ``#`` lines placed before the final column-header line (e.g. provenance); the
         default is the first line process_sensor_caldata.py writes.
 
+    Returns
+    -------
+    str
+        The file's text.
+
     Raises
     ------
     FirmwareValueError
@@ -246,8 +289,21 @@ def verify_px4_params(text: str, intended_cals, *, gyro=None, include_enable: bo
     Checks: the parameter names are exactly those of the calibrations (and their ``_ENABLE``
     unless ``include_enable`` is False) — no extra gyro or accel row; each type is the script's;
     each value equals the float32 of the intended value; and ``calc_thermal_offsets_3D`` on the
-    parsed values (:func:`~twin.firmware.px4.firmware_offset_px4`) reproduces the intended float64
+    parsed values (:func:`~twin.firmware.px4_vehicle.firmware_offset_px4`) reproduces the intended float64
     offsets within float32 evaluation error (see ``_tolerance``), 10 °C beyond the range included.
+
+    Parameters
+    ----------
+    text : str
+        The ``.params`` text.
+    intended_cals : Px4AccelCal, Px4GyroCal, or an iterable of them
+        The calibrations the text should hold.
+    gyro : Px4GyroCal or iterable of them, optional
+        More intended gyro calibrations.
+    include_enable : bool
+        Whether the text should hold ``TC_A_ENABLE``/``TC_G_ENABLE``.
+    source : str
+        Name in messages.
 
     Returns
     -------
@@ -296,7 +352,21 @@ def checked_px4_params_text(cals, *, gyro=None, **kwargs) -> str:
     """:func:`px4_params_text`, verified by :func:`verify_px4_params` before it is returned.
 
     The text to write atomically: every value was checked before the text existed, and the text
-    was read back as QGC reads it. Keyword arguments as :func:`px4_params_text`.
+    was read back as QGC reads it.
+
+    Parameters
+    ----------
+    cals : Px4AccelCal, Px4GyroCal, or an iterable of them
+        One calibration per instance and sensor kind.
+    gyro : Px4GyroCal or iterable of them, optional
+        Gyro calibrations.
+    **kwargs
+        As :func:`px4_params_text`.
+
+    Returns
+    -------
+    str
+        The verified ``.params`` text.
     """
     text = px4_params_text(cals, gyro=gyro, **kwargs)
     verify_px4_params(text, cals, gyro=gyro, include_enable=kwargs.get("include_enable", True))
@@ -306,72 +376,18 @@ def checked_px4_params_text(cals, *, gyro=None, **kwargs) -> str:
 def write_px4_params(path, cals, **kwargs) -> Path:
     """Write :func:`checked_px4_params_text` atomically to ``path`` (a ``.params`` file); return the path.
 
-    Nothing is written when a check refuses the calibration."""
-    return atomic_write_text(Path(path), checked_px4_params_text(cals, **kwargs))
+    Nothing is written when a check refuses the calibration.
 
+    Parameters
+    ----------
+    path : str or Path
+        Output ``.params`` file.
+    cals, **kwargs
+        As :func:`px4_params_text`.
 
-def _value(text: str, ptype: int, where: str) -> int | float:
-    try:
-        if ptype == MAV_PARAM_TYPE_REAL32:
-            return float(np.float32(float(text)))  # the firmware stores REAL32 parameters as float
-        if ptype == MAV_PARAM_TYPE_REAL64:
-            return float(text)
-        if 1 <= ptype <= 8:
-            return int(text)
-    except ValueError:
-        raise CalibrationFileError(f"{where}: value {text!r} is not a number of MAV_PARAM_TYPE {ptype}") from None
-    raise CalibrationFileError(f"{where}: unknown MAV_PARAM_TYPE {ptype} (QGC reads 1..10)")
-
-
-def parse_px4_params(text: str, source: str = "<params>") -> Px4ParamFile:
-    """Parse QGC ``.params`` text the way ``ParameterManager::readParametersFromStream`` reads it.
-
-    ``#`` lines are comments; every other non-blank line must have exactly 5 tab-separated fields
-    (QGC silently skips other lines; we raise, naming the line, so a broken export is noticed).
+    Returns
+    -------
+    Path
+        The file written.
     """
-    values, types, comments, ids = {}, {}, [], set()
-    for number, line in enumerate(text.splitlines(), 1):
-        where = f"{source}:{number}"
-        if line.startswith("#"):
-            comments.append(line)
-            continue
-        if not line.strip():
-            continue
-        fields = line.split("\t")
-        if len(fields) != 5:
-            raise CalibrationFileError(f"{where}: {len(fields)} tab-separated fields, QGC needs 5 "
-                                       "(Vehicle-Id Component-Id Name Value Type)")
-        try:
-            vid, cid, ptype = int(fields[0]), int(fields[1]), int(fields[4])
-        except ValueError:
-            raise CalibrationFileError(f"{where}: Vehicle-Id, Component-Id and Type must be integers") from None
-        name = fields[2]
-        if name in values:
-            raise CalibrationFileError(f"{where}: parameter {name} appears twice")
-        values[name] = _value(fields[3], ptype, where)
-        types[name] = ptype
-        ids.add((vid, cid))
-    if len(ids) > 1:
-        raise CalibrationFileError(f"{source}: rows for several vehicle/component ids {sorted(ids)}")
-    vid, cid = next(iter(ids)) if ids else (1, 1)
-    return Px4ParamFile(values, types, vid, cid, tuple(comments))
-
-
-def read_px4_params(path) -> Px4ParamFile:
-    """Read and parse a QGC ``.params`` file (see :func:`parse_px4_params`)."""
-    return parse_px4_params(read_text(path, "parameter file", CalibrationFileError), str(path))
-
-
-def px4_cal_from_params(values: Mapping[str, float], instance: int = 0, *, sensor: str = "accel") -> Px4Cal:
-    """The ``TC_A{instance}_*`` (or ``TC_G{instance}_*``) parameters back as a calibration (float32 values)."""
-    kind = check_sensor(sensor)
-    p = f"{SENSOR_PREFIX[kind]}{int(instance)}_"
-    names = [p + k for k in ("ID", "TMIN", "TMAX", "TREF")] + [f"{p}X{k}_{i}" for i in range(3) for k in range(4)]
-    missing = [n for n in names if n not in values]
-    if missing:
-        raise CalibrationFileError(f"parameters missing for {kind} instance {instance}: {', '.join(missing)}")
-    x = tuple(tuple(float(values[f"{p}X{k}_{i}"]) for k in range(4)) for i in range(3))
-    device_id = int(np.int32(values[p + "ID"]).view(np.uint32))
-    cls = Px4GyroCal if kind == "gyro" else Px4AccelCal
-    return cls(int(instance), device_id, float(values[p + "TMIN"]), float(values[p + "TMAX"]),
-               float(values[p + "TREF"]), x)
+    return atomic_write_text(Path(path), checked_px4_params_text(cals, **kwargs))

@@ -4,7 +4,8 @@ and simulated fleets whose truth is kept apart.
 
 Modules: :mod:`~twin.fleet.spec` (the fleet file and its units), :mod:`~twin.fleet.ledger`
 (``units.jsonl``), :mod:`~twin.fleet.units` (one unit's analysis, run in a worker),
-:mod:`~twin.fleet.runner` (executors), :mod:`~twin.fleet.population` (prevalence, parameter
+:mod:`~twin.fleet.runner` (executors), :mod:`~twin.fleet.result` (the typed row, population view
+and command results), :mod:`~twin.fleet.population` (prevalence, parameter
 distributions, robust outliers, the table), :mod:`~twin.fleet.summary` (``summary.html``) and
 :mod:`~twin.fleet.simulate` (a fleet scenario → logs + ``truth.json``).
 """

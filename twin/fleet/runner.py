@@ -19,15 +19,30 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from twin.fleet.ledger import LEDGER, append_record, exclusive, open_ledger, read_ledger
+from twin.fleet.result import FleetRow
 from twin.fleet.spec import FleetError, FleetSpec
 from twin.fleet.units import evaluate_unit
 
 
 @dataclass
 class FleetRun:
-    """The records of every finished unit (sorted by unit id) and what this run did."""
+    """The rows of every finished unit (sorted by unit id) and what this run did.
 
-    records: list[dict]
+    Attributes
+    ----------
+    records : list of FleetRow
+        Every finished unit of the fleet, sorted by unit id.
+    ran, skipped : int
+        Units analysed by this run; units found finished.
+    torn_dropped : bool
+        A torn last line of ``units.jsonl`` was cut off (that unit ran again).
+    temporaries_removed : int
+        Temporary files of a killed run that were removed.
+    notes : list of str
+        One line per repair, for people.
+    """
+
+    records: list[FleetRow]
     ran: int = 0
     skipped: int = 0
     torn_dropped: bool = False
@@ -57,6 +72,22 @@ def dask_client(scheduler: str | None, workers: int, connect_timeout_s: float = 
     """A client on ``scheduler``, or on a new LocalCluster of ``workers`` single-threaded processes
     (``processes=False``: threads of this process, which start in a second rather than tens).
 
+    Parameters
+    ----------
+    scheduler : str or None
+        Address of a running Dask scheduler, e.g. ``tcp://host:8786``; None: a new local cluster.
+    workers : int
+        Workers of the local cluster.
+    connect_timeout_s : float
+        How long a named scheduler has to answer [s].
+    processes : bool
+        Local cluster of processes (True) or of threads of this process.
+
+    Returns
+    -------
+    distributed.Client
+        The connected client (its ``cluster`` is the local cluster, if one was started).
+
     Raises
     ------
     FleetError
@@ -79,19 +110,48 @@ def dask_client(scheduler: str | None, workers: int, connect_timeout_s: float = 
                          "--scheduler for a local cluster") from None
 
 
-def _record(log: Path, rec: dict, done: dict, tick) -> None:
+def _record(log: Path, rec: FleetRow, done: dict, tick) -> None:
     append_record(log, rec)
-    done[rec["unit"]] = rec
+    done[rec.unit] = rec
     tick(rec)
 
 
 def run_fleet(spec: FleetSpec, out_dir: Path, workers: int = 1, executor: str = "local",
               scheduler: str | None = None, progress=None, connect_timeout_s: float = 10.0,
               dask_processes: bool = True) -> FleetRun:
-    """Analyse every unit not yet in ``out_dir/units.jsonl``; return all finished records by unit id.
+    """Analyse every unit not yet in ``out_dir/units.jsonl``; return all finished rows by unit id.
 
     A unit that errs is recorded with its error (and is not retried by a rerun: delete its line to
-    retry it). ``progress(record | None)`` is called once per unit, skipped ones included.
+    retry it). ``progress(row | None)`` is called once per unit, skipped ones included.
+
+    Parameters
+    ----------
+    spec : FleetSpec
+        The fleet (:func:`twin.fleet.spec.load_fleet_spec`).
+    out_dir : Path
+        The output folder (``units.jsonl``, ``units/<id>/``); created when missing.
+    workers : int
+        Parallel units (local processes, or a new local Dask cluster's workers).
+    executor : {"local", "dask"}
+        Where the units are analysed.
+    scheduler : str, optional
+        Address of a running Dask scheduler (default: a local cluster).
+    progress : callable, optional
+        ``progress(row | None)`` (``None``: a unit finished before).
+    connect_timeout_s : float
+        How long a named scheduler has to answer [s].
+    dask_processes : bool
+        A local Dask cluster of processes (True) or of threads.
+
+    Returns
+    -------
+    FleetRun
+        Every finished row, by unit id, and what this run did.
+
+    Raises
+    ------
+    FleetError
+        An unknown executor, a foreign or locked output folder, a scheduler that does not answer.
     """
     if executor not in ("local", "dask"):
         raise FleetError(f"--executor must be 'local' or 'dask', got {executor!r}")

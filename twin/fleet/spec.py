@@ -27,7 +27,20 @@ class FleetError(TwinError):
 
 
 def check_unit_id(uid, where: str) -> str:
-    """``uid`` as a string, or :class:`FleetError` when it could name a path outside ``units/``."""
+    """``uid`` as a string, or :class:`FleetError` when it could name a path outside ``units/``.
+
+    Parameters
+    ----------
+    uid : object
+        The unit id as written (a YAML key may be a number).
+    where : str
+        The file and line, for the message.
+
+    Returns
+    -------
+    str
+        The id: 1–128 characters, no ``/``, ``\\`` or NUL, no leading ``.``.
+    """
     text = str(uid)
     # the id names the unit's folder units/<id>: one plain path component, never '..' or hidden
     if isinstance(uid, bool) or uid is None or not 0 < len(text) <= 128 or text.startswith(".") \
@@ -39,7 +52,15 @@ def check_unit_id(uid, where: str) -> str:
 
 @dataclass
 class Unit:
-    """One unit: its id and its log files (several files are several runs)."""
+    """One unit: its id and its log files (several files are several runs).
+
+    Attributes
+    ----------
+    id : str
+        The unit's id (names its folder ``units/<id>``).
+    files : list of str
+        Its log files, sorted.
+    """
 
     id: str
     files: list[str]
@@ -47,7 +68,27 @@ class Unit:
 
 @dataclass
 class FleetSpec:
-    """A resolved fleet: the analysis, its twin scenario (compare), the units and their options."""
+    """A resolved fleet: the analysis, its twin scenario (compare), the units and their options.
+
+    Attributes
+    ----------
+    units : list of Unit
+        Sorted by id.
+    command : {"compare", "calibrate"}
+        The analysis run on every unit.
+    scenario : str or None
+        The twin's scenario file, absolute (compare); None for calibrate.
+    columns : dict
+        Column-map keys (:class:`twin.measurement.ColumnMap`) for delimited logs.
+    options : dict
+        The command's options given in the file (:data:`OPTIONS`; the rest take :data:`DEFAULTS`).
+    name : str
+        The fleet's name.
+    source : str
+        The fleet file, or the glob / folder given.
+    outlier_threshold : float
+        |robust z| above which a unit's value is an outlier [1].
+    """
 
     units: list[Unit]
     command: str = "compare"
@@ -59,7 +100,13 @@ class FleetSpec:
     outlier_threshold: float = 3.5
 
     def settings(self) -> dict:
-        """What a worker needs besides the unit (plain data, picklable)."""
+        """What a worker needs besides the unit (plain data, picklable).
+
+        Returns
+        -------
+        dict
+            ``command``, ``scenario``, ``columns`` and ``options`` (defaults filled in).
+        """
         return {"command": self.command, "scenario": self.scenario, "columns": dict(self.columns),
                 "options": {**{k: DEFAULTS[k] for k in OPTIONS[self.command]}, **self.options}}
 
@@ -71,7 +118,28 @@ def _unit_files(folder: Path) -> list[str]:
 
 def discover_units(pattern, base: Path, where: str) -> list[Unit]:
     """Units from a glob or folder (each file is a unit named by its stem, each folder a unit named
-    by its name) or from a mapping id → glob or list of files."""
+    by its name) or from a mapping id → glob or list of files.
+
+    Parameters
+    ----------
+    pattern : str or dict
+        A glob or folder, or unit id → glob or list of files.
+    base : Path
+        The folder relative paths are taken from (the fleet file's).
+    where : str
+        The file and line, for the messages.
+
+    Returns
+    -------
+    list of Unit
+        Sorted by id.
+
+    Raises
+    ------
+    FleetError
+        Nothing matches, a mapped unit names a folder, two units share an id, or a name is not
+        valid UTF-8.
+    """
     units: list[Unit] = []
     if isinstance(pattern, dict):
         for uid, files in pattern.items():
@@ -121,6 +189,20 @@ def discover_units(pattern, base: Path, where: str) -> list[Unit]:
 
 def load_fleet_spec(spec: str | Path, scenario: str | Path | None = None, command: str | None = None) -> FleetSpec:
     """A fleet YAML, or a glob/folder of units (then ``scenario`` gives the twin).
+
+    Parameters
+    ----------
+    spec : str or Path
+        A fleet YAML, or a glob / folder of unit logs.
+    scenario : str or Path, optional
+        The twin's scenario (overrides the file's; required for compare with a glob).
+    command : {"compare", "calibrate"}, optional
+        Overrides the file's command (default: compare).
+
+    Returns
+    -------
+    FleetSpec
+        The resolved fleet (scenario path made absolute).
 
     Raises
     ------

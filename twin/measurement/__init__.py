@@ -23,8 +23,9 @@ from twin.measurement.delimited import read_table, read_table_imu, write_canonic
 from twin.measurement.hdf5 import from_dataset, read_dataset_blind  # noqa: E402  (registers "hdf5")
 from twin.measurement.imu import ImuLog, usable_for_calibration
 from twin.measurement.parquet import read_parquet  # noqa: E402  (registers "parquet")
-from twin.measurement.quality import (LogQuality, LogQualityError, QualitySettings, Stretch, assess_log,
-                                      assess_measurement, cluster_directions, thermal_directions)
+from twin.measurement.log_quality import LogQuality, LogQualityError, QualitySettings
+from twin.measurement.quality import assess_log, assess_measurement, cluster_directions, thermal_directions
+from twin.measurement.quality_records import Stretch
 from twin.measurement.registry import (
     Reader,
     ReadOptions,
@@ -51,6 +52,16 @@ def concatenate_imu_logs(logs: list[ImuLog]) -> ImuLog:
     Each part's time starts one sample step (its median) after the previous part ends, as
     :func:`concatenate` does for single-axis runs. The gyro is kept when every part has one (else
     dropped, with a note); device ids when every part agrees; records whose message every part has.
+
+    Parameters
+    ----------
+    logs : list of ImuLog
+        The parts, in time order.
+
+    Returns
+    -------
+    ImuLog
+        The joined log: time [s], temperature [°C], acceleration [g], gyro [rad/s].
 
     Raises
     ------

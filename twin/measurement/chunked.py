@@ -41,7 +41,13 @@ CHUNK_ROWS = 1 << 18  # ≈ 12 MB of float64 per chunk of six columns: the frame
 
 def large_file_bytes() -> int:
     """Size [bytes] from which a delimited log is read in chunks (``TDE_TWIN_CHUNKED_MIN_BYTES``
-    overrides :data:`LARGE_FILE_BYTES`; an unusable value is ignored)."""
+    overrides :data:`LARGE_FILE_BYTES`; an unusable value is ignored).
+
+    Returns
+    -------
+    int
+        Threshold [bytes].
+    """
     try:
         return max(0, int(os.environ[LARGE_FILE_ENV]))
     except (KeyError, ValueError):
@@ -49,7 +55,18 @@ def large_file_bytes() -> int:
 
 
 def is_large(path: Path) -> bool:
-    """Whether ``path`` is read in chunks."""
+    """Whether ``path`` is read in chunks.
+
+    Parameters
+    ----------
+    path : Path
+        The delimited log.
+
+    Returns
+    -------
+    bool
+        True when its size reaches :func:`large_file_bytes` (False when it cannot be stat'ed).
+    """
     try:
         return path.stat().st_size >= large_file_bytes()
     except OSError:
@@ -58,7 +75,20 @@ def is_large(path: Path) -> bool:
 
 def estimated_rows(path: Path, first_line: int) -> int:
     """Rows from the file size and the line length of its first megabyte (after the banner and
-    header); later lines hold longer times, so this errs high, and untouched pages cost no memory."""
+    header); later lines hold longer times, so this errs high, and untouched pages cost no memory.
+
+    Parameters
+    ----------
+    path : Path
+        The delimited log.
+    first_line : int
+        File line (1-based) of the first data row.
+
+    Returns
+    -------
+    int
+        Estimated rows, plus one chunk of margin.
+    """
     with path.open("rb") as f:
         for _ in range(first_line - 1):
             f.readline()
@@ -98,17 +128,24 @@ def measurement_from_chunks(path: Path, cmap: ColumnMap, open_frames: Callable[[
     Parameters
     ----------
     path : Path
+        The delimited log.
     cmap : ColumnMap
+        Column names and units.
     open_frames : callable
         Returns the parser's chunks (DataFrames of float64 columns), as the in-memory path reads them.
     roles : tuple
-        ``(role, key, required)`` triples (:func:`~twin.measurement.delimited.single_axis_roles`).
+        ``(role, key, required)`` triples (:func:`~twin.measurement.from_columns.single_axis_roles`).
     position : callable
         ``position(columns, key)``: the index of the column ``key`` names, ``None`` if absent.
     first_line : int
         The file line of the first data row.
     run, applied_g
         Run number and applied acceleration [g] when the file has no such column.
+
+    Returns
+    -------
+    Measurement or None
+        Time [s], temperature [°C], output [g] …; ``None`` when the file is not clean.
     """
     import pandas as pd
 

@@ -25,17 +25,44 @@ COLUMN_KEYS = ("time", "temperature", "output", "applied", "run", "power_on", "x
 class ColumnMap:
     """How to read a delimited log.
 
-    ``time``, ``temperature``, ``output``, ``applied``, ``run``, ``power_on``: column names, or
-    0-based indices when the file has no header. Units: ``time_unit`` in s/ms/us; ``output_unit``
-    in g/mg/m/s^2/digits (with ``digit_mg``); ``output_scale`` multiplies after conversion (e.g. 4
-    for a ±4 g part logged in units of full scale/4); ``temperature_unit`` C or K.
+    Three output columns make the log an :class:`~twin.measurement.imu.ImuLog`. :meth:`validate`
+    checks every field's type and range; the readers call it before reading.
 
-    Three output columns make the log an :class:`~twin.measurement.imu.ImuLog`: ``x``, ``y``,
-    ``z`` (or ``output_cols``, a list of three); ``axis`` is the one a single-axis comparison uses.
-    Such a log may name its gyro columns too: ``gx``, ``gy``, ``gz`` (all three), in ``gyro_unit``
-    rad/s (default) or deg/s.
-
-    :meth:`validate` checks every field's type and range; the readers call it before reading.
+    Attributes
+    ----------
+    time, temperature, output, applied, run, power_on : str or int or None
+        Column names, or 0-based indices when the file has no header (``temperature`` and
+        ``output`` required; ``time`` None: times from ``sample_rate_hz``).
+    time_unit : str
+        s, ms, us, µs, ns, min or h.
+    temperature_unit : str
+        C, K or F.
+    output_unit : str
+        g, mg, m/s^2 or digits (with ``digit_mg``).
+    output_scale : float
+        Multiplies after conversion [1] (e.g. 4 for a ±4 g part logged in units of full scale/4).
+    digit_mg : float or None
+        The part's sensitivity [mg/digit]: required with output_unit digits.
+    skip_lines : int
+        Lines skipped before the header.
+    delimiter : str or None
+        One character, ``tab`` or ``whitespace``; None: sniff ',', tab, ';', whitespace.
+    header : bool
+        The file has a header line.
+    sample_rate_hz : float or None
+        Sample rate of a log without a time column [Hz].
+    invert_output : bool
+        Negate the output.
+    x, y, z : str or int or None
+        The three output columns of a three-axis log.
+    output_cols : list or None
+        The same as a list of three.
+    axis : str
+        The axis (x, y or z) a single-axis comparison uses.
+    gx, gy, gz : str or int or None
+        Gyro columns (all three or none).
+    gyro_unit : str
+        rad/s (default) or deg/s.
     """
 
     time: str | int | None = "time_s"
@@ -66,7 +93,18 @@ class ColumnMap:
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> ColumnMap:
-        """The column map of a YAML file; a bad key or value names its line and what was expected."""
+        """The column map of a YAML file; a bad key or value names its line and what was expected.
+
+        Parameters
+        ----------
+        path : str or Path
+            YAML file of column-map keys.
+
+        Returns
+        -------
+        ColumnMap
+            The validated map.
+        """
         from twin.errors import TwinError
         from twin.io import read_text
         from twin.text import line_map, load_yaml_mapping
@@ -89,6 +127,18 @@ class ColumnMap:
 
     def validate(self, where: str = "column map", lines: dict | None = None) -> ColumnMap:
         """Check every field's type and range (before any file is read); ``self`` for chaining.
+
+        Parameters
+        ----------
+        where : str
+            What to name in messages (the file).
+        lines : dict, optional
+            Line of each key in that file.
+
+        Returns
+        -------
+        ColumnMap
+            ``self``.
 
         Raises
         ------
@@ -138,7 +188,13 @@ class ColumnMap:
         return self
 
     def separator(self) -> str | None:
-        """The delimiter as the parser takes it (one character or ``\\s+``); ``None`` if unusable."""
+        """The delimiter as the parser takes it (one character or ``\\s+``); ``None`` if unusable.
+
+        Returns
+        -------
+        str or None
+            The separator.
+        """
         d = self.delimiter
         if not isinstance(d, str):
             return None
@@ -149,6 +205,11 @@ class ColumnMap:
 
     def axis_columns(self) -> tuple[str | int, str | int, str | int] | None:
         """The x, y, z output columns, or ``None`` for a single-axis log.
+
+        Returns
+        -------
+        tuple or None
+            Three column names or indices.
 
         Raises
         ------
@@ -172,6 +233,11 @@ class ColumnMap:
     def gyro_columns(self) -> tuple[str | int, str | int, str | int] | None:
         """The gyro x, y, z columns (``gx``, ``gy``, ``gz``), or ``None`` when the map names none.
 
+        Returns
+        -------
+        tuple or None
+            Three column names or indices.
+
         Raises
         ------
         MeasurementError
@@ -191,17 +257,54 @@ RUN_MAX = int(np.iinfo(np.int16).max)  # runs are stored as int16
 
 
 def not_whole_in_range(values: np.ndarray, low: int, high: int) -> np.ndarray:
-    """Where ``values`` (a run or power-on column read as floats) is not a whole number in [low, high]."""
+    """Where ``values`` (a run or power-on column read as floats) is not a whole number in [low, high].
+
+    Parameters
+    ----------
+    values : ndarray
+        Column read as floats [1].
+    low, high : int
+        Allowed range, inclusive.
+
+    Returns
+    -------
+    ndarray of bool
+        True where the value is not allowed.
+    """
     return (values != np.round(values)) | (values < low) | (values > high)
 
 
 def time_factor_s(unit: str) -> float:
-    """Seconds per ``unit`` (``nan`` for an unknown unit, so the caller names the unit)."""
+    """Seconds per ``unit`` (``nan`` for an unknown unit, so the caller names the unit).
+
+    Parameters
+    ----------
+    unit : str
+        A key of :data:`TIME_FACTORS_S`.
+
+    Returns
+    -------
+    float
+        Factor [s per unit].
+    """
     return TIME_FACTORS_S.get(unit, np.nan)
 
 
 def convert_output(values: np.ndarray, cmap: ColumnMap) -> np.ndarray:
-    """Output column(s) in g: the unit conversion, then ``output_scale``, then the sign."""
+    """Output column(s) in g: the unit conversion, then ``output_scale``, then the sign.
+
+    Parameters
+    ----------
+    values : ndarray
+        Output as logged [``cmap.output_unit``].
+    cmap : ColumnMap
+        Unit, ``digit_mg``, ``output_scale``, ``invert_output``.
+
+    Returns
+    -------
+    ndarray
+        Output [g] (m/s² divided by standard gravity 9.80665 m/s², CGPM 1901).
+    """
     unit = cmap.output_unit
     if unit == "g":
         out = values
@@ -222,7 +325,20 @@ def convert_output(values: np.ndarray, cmap: ColumnMap) -> np.ndarray:
 
 
 def convert_gyro_rad_s(values: np.ndarray, cmap: ColumnMap) -> np.ndarray:
-    """Gyro column(s) in rad/s from ``cmap.gyro_unit`` (rad/s or deg/s)."""
+    """Gyro column(s) in rad/s from ``cmap.gyro_unit`` (rad/s or deg/s).
+
+    Parameters
+    ----------
+    values : ndarray
+        Rate as logged [``cmap.gyro_unit``].
+    cmap : ColumnMap
+        Its ``gyro_unit``.
+
+    Returns
+    -------
+    ndarray
+        Rate [rad/s].
+    """
     factor = GYRO_FACTORS_RAD_S.get(cmap.gyro_unit)
     if factor is None:
         raise MeasurementError(f"gyro_unit must be one of {', '.join(GYRO_FACTORS_RAD_S)}, got {cmap.gyro_unit!r}")
@@ -230,7 +346,20 @@ def convert_gyro_rad_s(values: np.ndarray, cmap: ColumnMap) -> np.ndarray:
 
 
 def convert_temperature_c(values: np.ndarray, cmap: ColumnMap) -> np.ndarray:
-    """Temperature column in °C from C, K (−273.15) or F ((F − 32)·5/9, exact by definition)."""
+    """Temperature column in °C from C, K (−273.15) or F ((F − 32)·5/9, exact by definition).
+
+    Parameters
+    ----------
+    values : ndarray
+        Temperature as logged [``cmap.temperature_unit``].
+    cmap : ColumnMap
+        Its ``temperature_unit``.
+
+    Returns
+    -------
+    ndarray
+        Temperature [°C].
+    """
     unit = cmap.temperature_unit.upper()
     if unit == "K":
         return values - 273.15

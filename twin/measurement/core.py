@@ -59,6 +59,7 @@ class Measurement:
 
     @property
     def sample_rate_hz(self) -> float:
+        """Sample rate from the median positive time step [Hz] (1 for fewer than two samples)."""
         d = np.diff(self.time_s)
         if not (d > 0).all():  # a long log's increasing time: no second copy of its differences
             d = d[d > 0]
@@ -66,10 +67,17 @@ class Measurement:
 
     @property
     def runs(self) -> int:
+        """Number of runs (highest run index + 1) [1]."""
         return int(self.run_index.max()) + 1 if self.run_index.size else 0
 
     def time_since_power_on_s(self) -> np.ndarray:
-        """Time since the latest power-on flag (each run starts powered on)."""
+        """Time since the latest power-on flag (each run starts powered on).
+
+        Returns
+        -------
+        ndarray
+            Time since power-on [s], one per sample.
+        """
         out = np.empty(self.time_s.size)
         for r in range(self.runs):
             idx = np.flatnonzero(self.run_index == r)
@@ -85,6 +93,13 @@ class Measurement:
 
 def check(m: Measurement, where: str) -> None:
     """Physical plausibility: increasing time, gaps, units.
+
+    Parameters
+    ----------
+    m : Measurement
+        The measurement (gaps are noted in ``m.notes``).
+    where : str
+        What to name in messages (the file).
 
     Raises
     ------
@@ -126,7 +141,15 @@ def check(m: Measurement, where: str) -> None:
 
 def check_arrays(m: Measurement, where: str) -> None:
     """One length for every column, at least :data:`MIN_ROWS` rows, finite time, temperature and
-    output, and applied acceleration finite where the orientation is known (else all NaN)."""
+    output, and applied acceleration finite where the orientation is known (else all NaN).
+
+    Parameters
+    ----------
+    m : Measurement
+        The measurement.
+    where : str
+        What to name in messages (the file).
+    """
     n = m.time_s.size
     columns = {"time": m.time_s, "temperature": m.temperature_c, "output": m.output_g, "applied": m.applied_g,
                "run": m.run_index, "power_on": m.power_on}
@@ -149,7 +172,18 @@ def check_arrays(m: Measurement, where: str) -> None:
 
 
 def concatenate(parts: list[Measurement]) -> Measurement:
-    """Several files as several runs of one device, on one continuing time base."""
+    """Several files as several runs of one device, on one continuing time base.
+
+    Parameters
+    ----------
+    parts : list of Measurement
+        The files' measurements, in time order.
+
+    Returns
+    -------
+    Measurement
+        Runs renumbered from 0; each part starts one sample step after the previous one ends [s].
+    """
     t, offset = [], 0.0
     runs = []
     next_run = 0

@@ -251,6 +251,16 @@ def _imu_log(instance: int, rows: list, has_gyro: bool, tclr_rows: list, params:
 def read_dataflash(path: str | Path) -> list[ImuLog]:
     """Every IMU instance of an ArduPilot DataFlash ``.bin`` log, in instance order.
 
+    Parameters
+    ----------
+    path : str or Path
+        The ``.bin`` log.
+
+    Returns
+    -------
+    list of ImuLog
+        One per IMU instance: time [s], temperature [°C], acceleration [g], gyro [rad/s].
+
     Raises
     ------
     MeasurementError
@@ -268,6 +278,18 @@ def read_dataflash(path: str | Path) -> list[ImuLog]:
 
 
 def sniff_dataflash(path: Path) -> bool:
+    """Whether ``path`` starts with the DataFlash signature (its first two bytes).
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    bool
+        True for a file of this format.
+    """
     with path.open("rb") as f:
         return f.read(2) == DATAFLASH_SIGNATURE
 

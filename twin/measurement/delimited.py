@@ -3,8 +3,9 @@
 Canonical CSV: ``time_s,temperature_c,output_g[,applied_g][,run][,power_on]`` with a header line.
 A :class:`~twin.measurement.columns.ColumnMap` reads any other delimited log; three output
 columns (``x``, ``y``, ``z``) give an :class:`~twin.measurement.imu.ImuLog`, with its gyro when
-the map names ``gx``, ``gy``, ``gz``. Bad input raises
-:class:`MeasurementError` naming the file, line and column.
+the map names ``gx``, ``gy``, ``gz``; the columns found become either in
+:mod:`twin.measurement.from_columns`. Bad input raises :class:`MeasurementError` naming the file,
+line and column.
 
 pandas' C parser reads the text. Clean files take a fast path: every field typed float64 up front
 (no object columns, no coercion pass; 8.64 M rows × 4 columns: about 40 % less time and 12 % less
@@ -25,22 +26,19 @@ from pathlib import Path
 import numpy as np
 
 from twin.measurement import chunked
-from twin.measurement.columns import (
-    RUN_MAX,
-    ColumnMap,
-    convert_gyro_rad_s,
-    convert_output,
-    convert_temperature_c,
-    not_whole_in_range,
-    time_factor_s,
+from twin.measurement.columns import ColumnMap
+from twin.measurement.core import Measurement, MeasurementError
+from twin.measurement.from_columns import (
+    imu_from_columns,
+    measurement_from_columns,
+    single_axis_roles,
+    three_axis_roles,
 )
-from twin.measurement.core import Measurement, MeasurementError, check
 from twin.measurement.imu import ImuLog
 from twin.measurement.registry import ReadOptions, register_reader
 from twin.text import did_you_mean
 
 SUFFIXES = (".csv", ".tsv", ".txt", ".log", ".dat")
-MAX_MEDIAN_NORM_G = 4.0  # a median |a| above this is a unit mistake, not an accelerometer (as the 1-axis check)
 
 
 def _sniff_separator(lines: list[str]) -> str:
@@ -51,7 +49,18 @@ def _sniff_separator(lines: list[str]) -> str:
 
 
 def utf8_error(path: Path) -> str | None:
-    """``"FILE:LINE: not UTF-8 text ..."`` for the first line that is not UTF-8, or ``None``."""
+    """``"FILE:LINE: not UTF-8 text ..."`` for the first line that is not UTF-8, or ``None``.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    str or None
+        The message naming the line, byte and column; ``None`` when every line is UTF-8.
+    """
     with path.open("rb") as f:
         for number, raw in enumerate(f, 1):
             try:
@@ -217,41 +226,27 @@ def _numeric_columns(path: Path, cmap: ColumnMap, roles, skip_bad_rows: bool):
     return values, keep, int(bad.sum())
 
 
-def _kept(values: np.ndarray, keep: np.ndarray | None) -> np.ndarray:
-    """The kept rows (no copy when every row is kept)."""
-    return values if keep is None else values[keep]
-
-
-def _time_s(values: dict, keep: np.ndarray | None, n: int, cmap: ColumnMap) -> np.ndarray:
-    """Seconds from the first kept row (or from the sample rate when there is no time column)."""
-    if "time" not in values:
-        return np.arange(n) / cmap.sample_rate_hz
-    t = _kept(values["time"], keep)
-    if time_factor_s(cmap.time_unit) != 1.0:  # x·1 == x exactly: one copy of a long log fewer
-        t = t * time_factor_s(cmap.time_unit)
-    return t - t[0]
-
-
-def _kept_count(values: dict, keep: np.ndarray | None) -> int:
-    return int(keep.sum()) if keep is not None else next(iter(values.values())).size
-
-
-def _whole_numbers(values: np.ndarray, path: Path, first_line: int, role: str, low: int, high: int) -> np.ndarray:
-    """``values`` as integers in [low, high]; a fraction or an out-of-range value names its line."""
-    wrong = not_whole_in_range(values, low, high)
-    if wrong.any():
-        k = int(np.flatnonzero(wrong)[0])
-        raise MeasurementError(f"{path}: {role} column holds {values[k]:g} (row {k + 1} of the data, about line "
-                               f"{k + first_line}); expected a whole number from {low} to {high}")
-    return values.astype(np.int64)
-
-
 def read_table(path: str | Path, cmap: ColumnMap | None = None, *, run: int = 0, skip_bad_rows: bool = False,
                applied_g: float | None = None) -> Measurement:
     """Read one delimited file as one run.
 
-    ``applied_g``: the acceleration along the axis when the file has no such column (``None``
-    with no column means unknown).
+    Parameters
+    ----------
+    path : str or Path
+        The log.
+    cmap : ColumnMap, optional
+        Columns and units; default the canonical CSV's.
+    run : int
+        Run number when the file has no run column.
+    skip_bad_rows : bool
+        Drop (and count) unreadable or non-finite rows instead of failing.
+    applied_g : float, optional
+        Acceleration along the axis when the file has no such column [g] (``None``: unknown).
+
+    Returns
+    -------
+    Measurement
+        Time [s], temperature [°C], output and applied acceleration [g].
     """
     cmap = cmap or ColumnMap()
     path = Path(path)
@@ -280,51 +275,25 @@ def _large_measurement(path: Path, cmap: ColumnMap, roles, skip_bad_rows: bool, 
     return chunked.measurement_from_chunks(path, cmap, open_frames, roles, _position, layout.first_line, run, applied_g)
 
 
-def single_axis_roles(cmap: ColumnMap) -> tuple:
-    """``(role, key, required)`` for a single-axis log, in the order a missing column is named."""
-    return (("temperature", cmap.temperature, True), ("output", cmap.output, True),
-            ("time", cmap.time, cmap.sample_rate_hz is None), ("applied", cmap.applied, False),
-            ("run", cmap.run, False), ("power_on", cmap.power_on, False))
-
-
-def three_axis_roles(cmap: ColumnMap, axis_cols) -> tuple:
-    """``(role, key, required)`` for a 3-axis log (with ``x gyro`` ... when the map names a gyro)."""
-    gyro_cols = cmap.gyro_columns() or ()
-    return (("temperature", cmap.temperature, True), *((f"{a} output", k, True) for a, k in zip("xyz", axis_cols)),
-            ("time", cmap.time, cmap.sample_rate_hz is None),
-            *((f"{a} gyro", k, True) for a, k in zip("xyz", gyro_cols)))
-
-
-def measurement_from_columns(path: Path, cmap: ColumnMap, values: dict, keep: np.ndarray | None, n_bad: int,
-                             first_line: int, run: int = 0, applied_g: float | None = None) -> Measurement:
-    """A checked :class:`Measurement` from a reader's float64 columns by role (``keep``: rows kept,
-    ``None`` for all; ``first_line``: the file line of the first row, for messages)."""
-    n = _kept_count(values, keep)
-    t = _time_s(values, keep, n, cmap)
-    temp = convert_temperature_c(_kept(values["temperature"], keep), cmap)
-    out = convert_output(_kept(values["output"], keep), cmap)
-    if "applied" in values:
-        applied, known = _kept(values["applied"], keep), True
-    elif applied_g is not None:
-        applied, known = np.full(n, float(applied_g)), True
-    else:
-        applied, known = np.full(n, np.nan), False
-    first = first_line
-    run_idx = (_whole_numbers(_kept(values["run"], keep), path, first, "run", 0, RUN_MAX)
-               if "run" in values else np.full(n, run, np.int16))
-    power = (_whole_numbers(_kept(values["power_on"], keep), path, first, "power_on", 0, 1).astype(bool)
-             if "power_on" in values else np.zeros(n, bool))
-    del values
-    m = Measurement(t, temp, out, applied, run_idx.astype(np.int16), power, known, [str(path)], n_bad, [])
-    check(m, str(path))
-    return m
-
-
 def read_table_imu(path: str | Path, cmap: ColumnMap, *, skip_bad_rows: bool = False) -> ImuLog:
     """Read a 3-axis delimited log (``cmap.x/y/z`` or ``cmap.output_cols``) as one :class:`ImuLog`.
 
     Time must increase strictly: two rows at one instant (two orientations, or a repeated row)
     are an error naming the line, as in a single-axis log.
+
+    Parameters
+    ----------
+    path : str or Path
+        The log.
+    cmap : ColumnMap
+        Columns and units.
+    skip_bad_rows : bool
+        Drop (and count) unreadable or non-finite rows instead of failing.
+
+    Returns
+    -------
+    ImuLog
+        Time [s], temperature [°C], acceleration (n, 3) [g], gyro [rad/s] when named.
     """
     path = Path(path)
     axis_cols = cmap.axis_columns()
@@ -335,50 +304,21 @@ def read_table_imu(path: str | Path, cmap: ColumnMap, *, skip_bad_rows: bool = F
     return imu_from_columns(path, cmap, values, keep, n_bad, cmap.skip_lines + (2 if cmap.header else 1))
 
 
-def imu_from_columns(path: Path, cmap: ColumnMap, values: dict, keep: np.ndarray | None, n_bad: int,
-                     first_line: int) -> ImuLog:
-    """A checked :class:`ImuLog` from a reader's float64 columns by role (as :func:`measurement_from_columns`)."""
-    n = _kept_count(values, keep)
-    t = _time_s(values, keep, n, cmap)
-    check_increasing(t, path, first_line, keep)
-    accel = np.column_stack([convert_output(_kept(values[f"{a} output"], keep), cmap) for a in "xyz"])
-    gyro = (np.column_stack([convert_gyro_rad_s(_kept(values[f"{a} gyro"], keep), cmap) for a in "xyz"])
-            if "x gyro" in values else None)
-    temp = convert_temperature_c(_kept(values["temperature"], keep), cmap)
-    del values
-    check_values(temp, accel, str(path))
-    notes = (f"{path}: {n_bad} bad row(s) skipped",) if n_bad else ()
-    return ImuLog(t, temp, accel, 0, None, str(path), notes, gyro_rad_s=gyro)
-
-
-def check_increasing(t: np.ndarray, path: Path, first_line: int, keep: np.ndarray | None) -> None:
-    """Fail naming the file line where time stops increasing strictly."""
-    d = np.diff(t)
-    if d.size and not (d > 0).all():
-        k = int(np.flatnonzero(~(d > 0))[0]) + 1
-        row = int(np.flatnonzero(keep)[k]) if keep is not None else k
-        raise MeasurementError(f"{path}:{row + first_line}: time {t[k] + 0.0:g} s does not follow {t[k - 1] + 0.0:g} s; expected "
-                               "strictly increasing time (one orientation per instant; check time_unit or sort the file)")
-
-
-def check_values(temperature_c: np.ndarray, accel_g: np.ndarray, where: str) -> None:
-    """Plausible units for a 3-axis log: temperature in °C, acceleration in g."""
-    med = float(np.median(temperature_c))
-    if med > 150:
-        raise MeasurementError(f"{where}: temperature median {med:.1f} looks like kelvin; "
-                               "set temperature_unit: K (or F for Fahrenheit)")
-    # per row, not per value: on a level board two axes read ~0, so the median over all values
-    # would pass a log in mg (or m/s²) declared as g; a still or flying IMU reads |a| of about 1 g
-    with np.errstate(over="ignore"):  # |a| of 1e300 is inf, refused below like any unit mistake
-        norm = float(np.median(np.linalg.norm(accel_g, axis=1) if accel_g.ndim == 2 else np.abs(accel_g)))
-    if norm > MAX_MEDIAN_NORM_G:
-        raise MeasurementError(f"{where}: acceleration median |a| {norm:.3g} g is implausible for an IMU at rest or in "
-                               f"flight (expected about 1 g, at most {MAX_MEDIAN_NORM_G:g}); set output_unit "
-                               "(m/s^2, mg or digits)")
-
-
 def write_canonical_csv(path: str | Path, time_s, temperature_c, output_g, applied_g, run, power_on) -> Path:
-    """Write the canonical CSV form (atomically)."""
+    """Write the canonical CSV form (atomically).
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file.
+    time_s, temperature_c, output_g, applied_g, run, power_on : array_like
+        Time [s], temperature [°C], output and applied acceleration [g], run number, power-on flag.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     import io
 
     from twin.io import atomic_write_text
@@ -391,7 +331,18 @@ def write_canonical_csv(path: str | Path, time_s, temperature_c, output_g, appli
 
 
 def sniff_text(path: Path) -> bool:
-    """A text file: no NUL byte in its first 4 kB (every binary log format here has some)."""
+    """A text file: no NUL byte in its first 4 kB (every binary log format here has some).
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    bool
+        True for a non-empty file without a NUL byte in its first 4 kB.
+    """
     with path.open("rb") as f:
         head = f.read(4096)
     return bool(head) and b"\0" not in head

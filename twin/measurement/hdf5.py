@@ -18,7 +18,20 @@ LOGGED = ["time_s", "temperature/thermometer_c", "output/output_g", "test/applie
 
 def logged_arrays(path: Path, names: list[str]) -> dict[str, np.ndarray]:
     """The datasets ``names`` of an HDF5 file, each checked before it is read: present, a 1-D
-    numeric dataset, all of one non-zero length (a 2-D, text, empty or ragged file is one line)."""
+    numeric dataset, all of one non-zero length (a 2-D, text, empty or ragged file is one line).
+
+    Parameters
+    ----------
+    path : Path
+        The HDF5 file.
+    names : list of str
+        Dataset paths, the first one's length the reference.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The arrays by path, in their stored units.
+    """
     import h5py
 
     try:
@@ -46,7 +59,18 @@ def logged_arrays(path: Path, names: list[str]) -> dict[str, np.ndarray]:
 
 
 def read_dataset_blind(path: str | Path) -> Measurement:
-    """A ``twin run`` HDF5 file read as a measurement: the logged columns only, never the truth."""
+    """A ``twin run`` HDF5 file read as a measurement: the logged columns only, never the truth.
+
+    Parameters
+    ----------
+    path : str or Path
+        The dataset file.
+
+    Returns
+    -------
+    Measurement
+        Time [s], thermometer [°C], output and applied acceleration [g], runs, power-on flags.
+    """
     path = Path(path)
     arrays = logged_arrays(path, LOGGED)
     run = arrays["test/run_index"]
@@ -60,20 +84,53 @@ def read_dataset_blind(path: str | Path) -> Measurement:
 
 
 def from_dataset(ds) -> Measurement:
-    """The logged columns of an in-memory simulated :class:`~twin.model.dataset.Dataset` (no truth)."""
+    """The logged columns of an in-memory simulated :class:`~twin.model.dataset.Dataset` (no truth).
+
+    Parameters
+    ----------
+    ds : Dataset
+        A one-axis simulated dataset.
+
+    Returns
+    -------
+    Measurement
+        Time [s], thermometer [°C], output and applied acceleration [g], runs, power-on flags.
+    """
     return Measurement(ds["time_s"].astype(float), ds["temperature/thermometer_c"].astype(float),
                        ds["output/output_g"].astype(float), ds["test/applied_g"].astype(float),
                        ds["test/run_index"].astype(np.int16), ds["test/power_on"].astype(bool), True, ["<dataset>"])
 
 
 def sniff_hdf5(path: Path) -> bool:
-    """The HDF5 signature at offset 0 (where ``twin run`` writes it; no user block)."""
+    """The HDF5 signature at offset 0 (where ``twin run`` writes it; no user block).
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    bool
+        True for an HDF5 file.
+    """
     with path.open("rb") as f:
         return f.read(8) == HDF5_SIGNATURE
 
 
 def read_three_axis_blind(path: Path) -> ImuLog:
-    """A three-axis ``twin run`` file (``device.axes``) as an :class:`ImuLog`: logged columns only."""
+    """A three-axis ``twin run`` file (``device.axes``) as an :class:`ImuLog`: logged columns only.
+
+    Parameters
+    ----------
+    path : Path
+        The dataset file.
+
+    Returns
+    -------
+    ImuLog
+        Time [s], thermometer [°C], acceleration (n, 3) [g].
+    """
     from twin.model.axes import imu_log_fields
     from twin.model.dataset import read_hdf5
 

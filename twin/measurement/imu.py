@@ -99,8 +99,14 @@ class ImuLog:
         Parameters
         ----------
         name : {"x", "y", "z"}
+            The axis.
         applied_g : float, optional
             Acceleration applied along that axis [g]; ``None`` means unknown.
+
+        Returns
+        -------
+        Measurement
+            Time [s], temperature [°C], output along the axis [g].
 
         Raises
         ------
@@ -122,6 +128,17 @@ class ImuLog:
 def usable_for_calibration(log: ImuLog, *, min_samples: int = MIN_SAMPLES,
                            min_range_c: float = MIN_TEMPERATURE_RANGE_C, raise_error: bool = False) -> tuple[bool, str]:
     """Whether ``log`` can calibrate a temperature drift model: enough samples over enough °C.
+
+    Parameters
+    ----------
+    log : ImuLog
+        The log.
+    min_samples : int
+        Fewest samples.
+    min_range_c : float
+        Smallest temperature span [°C] (ArduPilot's TEMP_RANGE_MIN, 10 °C).
+    raise_error : bool
+        Raise instead of returning a negative verdict.
 
     Returns
     -------
@@ -153,6 +170,22 @@ def drop_unusable_rows(time_s: np.ndarray, temperature_c: np.ndarray, accel: np.
 
     Flight logs interleave instances and may repeat a timestamp or log NaN temperature when a
     driver resets; the diagnosis needs strictly increasing time and finite values.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Sample times [s].
+    temperature_c : ndarray
+        Temperature [°C].
+    accel : ndarray
+        Acceleration, shape (n, 3) [g or the log's unit].
+    where : str
+        What to name in messages.
+
+    Returns
+    -------
+    tuple
+        Time [s], temperature [°C] and acceleration of the kept rows, and a tuple of notes.
     """
     order = np.argsort(time_s, kind="stable")
     t, temp, acc = time_s[order], temperature_c[order], accel[order]

@@ -15,7 +15,7 @@ import numpy as np
 
 from twin.measurement.columns import ColumnMap
 from twin.measurement.core import Measurement, MeasurementError
-from twin.measurement.delimited import (
+from twin.measurement.from_columns import (
     imu_from_columns,
     measurement_from_columns,
     single_axis_roles,
@@ -56,7 +56,28 @@ def _resolve(names: list[str], key, path: Path, role: str, required: bool) -> st
 
 
 def read_columns(path: Path, cmap: ColumnMap, roles, skip_bad_rows: bool):
-    """``{role: float64 values}``, the rows to keep (``None``: all) and how many were bad."""
+    """``{role: float64 values}``, the rows to keep (``None``: all) and how many were bad.
+
+    Parameters
+    ----------
+    path : Path
+        The Parquet file.
+    cmap : ColumnMap
+        Columns and units.
+    roles : tuple
+        ``(role, key, required)`` triples (:func:`~twin.measurement.from_columns.single_axis_roles`).
+    skip_bad_rows : bool
+        Drop (and count) rows with a null or non-finite value instead of failing.
+
+    Returns
+    -------
+    values : dict of str to ndarray
+        Columns by role, float64, in the file's units.
+    keep : ndarray of bool or None
+        Rows kept.
+    n_bad : int
+        Rows dropped.
+    """
     import pyarrow as pa
 
     cmap.validate(f"{path}: column map")
@@ -102,7 +123,24 @@ def read_columns(path: Path, cmap: ColumnMap, roles, skip_bad_rows: bool):
 
 def read_parquet(path: str | Path, cmap: ColumnMap | None = None, *, skip_bad_rows: bool = False,
                  applied_g: float | None = None) -> Measurement | ImuLog:
-    """A Parquet log as a :class:`Measurement` (or an :class:`ImuLog` when the map names x, y, z)."""
+    """A Parquet log as a :class:`Measurement` (or an :class:`ImuLog` when the map names x, y, z).
+
+    Parameters
+    ----------
+    path : str or Path
+        The Parquet file.
+    cmap : ColumnMap, optional
+        Columns and units; default the canonical names.
+    skip_bad_rows : bool
+        Drop (and count) rows with a null or non-finite value instead of failing.
+    applied_g : float, optional
+        Acceleration along the axis when the file has no such column [g] (``None``: unknown).
+
+    Returns
+    -------
+    Measurement or ImuLog
+        Time [s], temperature [°C], output or acceleration [g].
+    """
     path, cmap = Path(path), cmap or ColumnMap()
     axis_cols = cmap.axis_columns()
     if axis_cols is not None:
@@ -115,6 +153,18 @@ def read_parquet(path: str | Path, cmap: ColumnMap | None = None, *, skip_bad_ro
 
 
 def sniff_parquet(path: Path) -> bool:
+    """Whether ``path`` starts with the Parquet signature (``PAR1``).
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    bool
+        True for a file of this format.
+    """
     with path.open("rb") as f:
         return f.read(4) == PARQUET_SIGNATURE
 

@@ -45,7 +45,23 @@ class ReadOptions:
 
 @dataclass(frozen=True)
 class Reader:
-    """A registered format: its name, the suffixes it claims, its read function and sniffer."""
+    """A registered format: its name, the suffixes it claims, its read function and sniffer.
+
+    Attributes
+    ----------
+    name : str
+        Format name.
+    suffixes : tuple of str
+        File suffixes claimed, lower case with the dot.
+    read : callable
+        ``read(path, options)`` → Measurement, ImuLog or list of ImuLog.
+    sniff : callable or None
+        ``sniff(path)`` → whether the content is this format.
+    description : str
+        One line for ``twin formats``.
+    priority : int
+        Sniffing order, highest first.
+    """
 
     name: str
     suffixes: tuple[str, ...]
@@ -66,6 +82,26 @@ def register_reader(name: str, suffixes, read_fn: Callable[[Path, ReadOptions], 
     ``sniff(path) -> bool`` says from the content whether the file is this format; it decides
     when several readers claim a suffix, or when no reader claims it. Sniffers run by descending
     ``priority``, then in registration order (a catch-all such as plain text takes a negative one).
+
+    Parameters
+    ----------
+    name : str
+        Format name.
+    suffixes : str or sequence of str
+        Suffixes claimed, each starting with ``.``.
+    read_fn : callable
+        ``read_fn(path, options)`` → Measurement, ImuLog or list of ImuLog.
+    sniff : callable, optional
+        ``sniff(path)`` → bool.
+    description : str
+        One line for ``twin formats``.
+    priority : int
+        Sniffing order, highest first.
+
+    Returns
+    -------
+    Reader
+        The registered reader.
     """
     if not callable(read_fn) or (sniff is not None and not callable(sniff)):
         raise MeasurementError(f"reader {name!r}: read_fn and sniff must be callables")
@@ -79,17 +115,35 @@ def register_reader(name: str, suffixes, read_fn: Callable[[Path, ReadOptions], 
 
 
 def unregister_reader(name: str) -> None:
-    """Remove the reader ``name`` (a no-op if it is not registered)."""
+    """Remove the reader ``name`` (a no-op if it is not registered).
+
+    Parameters
+    ----------
+    name : str
+        Format name.
+    """
     _READERS.pop(name, None)
 
 
 def readers() -> dict[str, Reader]:
-    """The registered readers by name, in registration order (a copy)."""
+    """The registered readers by name, in registration order (a copy).
+
+    Returns
+    -------
+    dict of str to Reader
+        The readers.
+    """
     return dict(_READERS)
 
 
 def known_formats() -> str:
-    """``"name (.a, .b), ..."`` for error messages."""
+    """``"name (.a, .b), ..."`` for error messages.
+
+    Returns
+    -------
+    str
+        Every format with its suffixes.
+    """
     return ", ".join(f"{r.name} ({', '.join(r.suffixes)})" for r in _READERS.values())
 
 
@@ -102,6 +156,16 @@ def _sniffs(reader: Reader, path: Path) -> bool:
 
 def find_reader(path: str | Path) -> Reader:
     """The reader for ``path``: by suffix, sniffing among several claimants or when none claims it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    Reader
+        The reader chosen.
 
     Raises
     ------
@@ -127,6 +191,18 @@ def find_reader(path: str | Path) -> Reader:
 def load_reader_plugin(path_or_module: str | Path, base_dir: str | Path = ".") -> list[Reader]:
     """Import a user's reader module (a ``.py`` path or a module name); the readers it registered.
 
+    Parameters
+    ----------
+    path_or_module : str or Path
+        A ``.py`` path (relative to ``base_dir``) or a module name.
+    base_dir : str or Path
+        Directory a relative path is resolved against.
+
+    Returns
+    -------
+    list of Reader
+        The readers whose read function the module defines.
+
     Raises
     ------
     MeasurementError
@@ -143,13 +219,39 @@ def load_reader_plugin(path_or_module: str | Path, base_dir: str | Path = ".") -
 
 
 def read_any(path: str | Path, options: ReadOptions | None = None) -> ReadResult:
-    """Whatever the registered reader for ``path`` returns."""
+    """Whatever the registered reader for ``path`` returns.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    options : ReadOptions, optional
+        Column map, bad-row handling, applied acceleration [g].
+
+    Returns
+    -------
+    Measurement or ImuLog or list of ImuLog
+        The reader's result.
+    """
     path = Path(path)
     return find_reader(path).read(path, options or ReadOptions())
 
 
 def as_imu_logs(result: ReadResult, path: Path) -> list[ImuLog]:
-    """A reader's result as IMU logs (a single-axis Measurement cannot be one)."""
+    """A reader's result as IMU logs (a single-axis Measurement cannot be one).
+
+    Parameters
+    ----------
+    result : Measurement or ImuLog or list of ImuLog
+        What a reader returned.
+    path : Path
+        The file, for messages.
+
+    Returns
+    -------
+    list of ImuLog
+        The logs.
+    """
     if isinstance(result, ImuLog):
         return [result]
     if isinstance(result, list) and all(isinstance(r, ImuLog) for r in result):
@@ -160,7 +262,26 @@ def as_imu_logs(result: ReadResult, path: Path) -> list[ImuLog]:
 
 def as_measurement(result: ReadResult, path: Path, axis: str, instance: int | None,
                    applied_g: float | None) -> Measurement:
-    """A reader's result as one single-axis Measurement: ``axis`` of IMU ``instance`` (default: the first)."""
+    """A reader's result as one single-axis Measurement: ``axis`` of IMU ``instance`` (default: the first).
+
+    Parameters
+    ----------
+    result : Measurement or ImuLog or list of ImuLog
+        What a reader returned.
+    path : Path
+        The file, for messages.
+    axis : str
+        ``"x"``, ``"y"`` or ``"z"``.
+    instance : int or None
+        IMU instance.
+    applied_g : float or None
+        Acceleration applied along the axis [g]; ``None``: unknown.
+
+    Returns
+    -------
+    Measurement
+        Time [s], temperature [°C], output [g].
+    """
     if isinstance(result, Measurement):
         return result
     logs = as_imu_logs(result, path)
@@ -187,11 +308,18 @@ def load_measurements(paths: list[str | Path], cmap: ColumnMap | None = None, *,
         Several files are several runs.
     cmap : ColumnMap, optional
         For delimited logs.
+    skip_bad_rows : bool
+        Skip and count corrupted rows instead of failing.
     applied_g : float or "unknown"
-        Value for files without an applied column; ``"unknown"`` when the orientation was not logged.
+        Value for files without an applied column [g]; ``"unknown"`` when the orientation was not logged.
     axis, instance : optional
         For multi-axis logs: the axis (default ``cmap.axis``, else ``"z"``) and IMU instance
         (default: the first) compared.
+
+    Returns
+    -------
+    Measurement
+        Time [s], temperature [°C], output and applied acceleration [g], runs concatenated.
     """
     if not paths:
         raise MeasurementError("no measurement files given")
@@ -216,7 +344,22 @@ def load_measurements(paths: list[str | Path], cmap: ColumnMap | None = None, *,
 
 
 def read_imu_logs(path: str | Path, cmap: ColumnMap | None = None, *, skip_bad_rows: bool = False) -> list[ImuLog]:
-    """Every IMU instance of a flight log or 3-axis table, one :class:`ImuLog` each."""
+    """Every IMU instance of a flight log or 3-axis table, one :class:`ImuLog` each.
+
+    Parameters
+    ----------
+    path : str or Path
+        The log.
+    cmap : ColumnMap, optional
+        For a 3-axis delimited or Parquet table.
+    skip_bad_rows : bool
+        Skip and count corrupted rows instead of failing.
+
+    Returns
+    -------
+    list of ImuLog
+        One per instance: time [s], temperature [°C], acceleration [g].
+    """
     path = Path(path)
     return as_imu_logs(read_any(path, ReadOptions(cmap, skip_bad_rows, None)), path)
 
@@ -224,7 +367,24 @@ def read_imu_logs(path: str | Path, cmap: ColumnMap | None = None, *, skip_bad_r
 def imu_logs_by_instance(paths, cmap: ColumnMap | None = None, imu: str | int | None = "all", *,
                          skip_bad_rows: bool = False) -> dict[int, list[ImuLog]]:
     """IMU instance → its logs over ``paths`` (several files = several runs of one IMU), all
-    instances or the one ``imu`` names; an instance the logs lack is an error naming those they hold."""
+    instances or the one ``imu`` names; an instance the logs lack is an error naming those they hold.
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+        The logs.
+    cmap : ColumnMap, optional
+        For 3-axis tables.
+    imu : str or int or None
+        An instance number, or ``"all"`` / ``None``.
+    skip_bad_rows : bool
+        Skip and count corrupted rows instead of failing.
+
+    Returns
+    -------
+    dict of int to list of ImuLog
+        Logs per instance, in the order of ``paths``.
+    """
     per: dict[int, list[ImuLog]] = {}
     for path in paths:
         for log in read_imu_logs(path, cmap, skip_bad_rows=skip_bad_rows):
@@ -242,7 +402,17 @@ def imu_logs_by_instance(paths, cmap: ColumnMap | None = None, imu: str | int | 
 
 
 def require_signature(path: Path, signature: bytes, what: str) -> None:
-    """Fail in one line unless ``path`` exists, is not empty and starts with ``signature``."""
+    """Fail in one line unless ``path`` exists, is not empty and starts with ``signature``.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    signature : bytes
+        The format's magic bytes.
+    what : str
+        The format, for messages.
+    """
     if not path.is_file():
         raise MeasurementError(f"{path}: measurement file not found")
     with path.open("rb") as f:

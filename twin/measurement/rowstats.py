@@ -6,18 +6,38 @@ from __future__ import annotations
 import numpy as np
 
 
-def median_dt(t: np.ndarray) -> float:
-    d = np.diff(t)
-    return float(np.median(d[d > 0])) if np.any(d > 0) else 1.0
-
-
 def unit(v) -> np.ndarray:
+    """``v`` scaled to unit length (a zero vector stays near zero).
+
+    Parameters
+    ----------
+    v : array_like
+        A vector [any unit].
+
+    Returns
+    -------
+    ndarray
+        Unit vector [1].
+    """
     v = np.asarray(v, float)
     return v / max(float(np.linalg.norm(v)), 1e-12)
 
 
 def window_stats(x: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray]:
-    """Centred moving mean and σ over ``w`` rows, per column."""
+    """Centred moving mean and σ over ``w`` rows, per column.
+
+    Parameters
+    ----------
+    x : ndarray
+        Values, shape (n, columns) [any unit].
+    w : int
+        Window [rows], cut at the ends.
+
+    Returns
+    -------
+    mean, sigma : ndarray
+        Per row and column [unit of ``x``].
+    """
     centre = np.median(x, axis=0)
     x = x - centre  # small numbers in the cumulative sums of a long log
     i = np.arange(x.shape[0])
@@ -30,7 +50,22 @@ def window_stats(x: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray]:
 
 def slow_median(t: np.ndarray, x: np.ndarray, block_s: float) -> np.ndarray:
     """Per column, the medians of consecutive ``block_s`` blocks interpolated at every row: a slow
-    reference that a short motion inside a block does not move (a running mean would)."""
+    reference that a short motion inside a block does not move (a running mean would).
+
+    Parameters
+    ----------
+    t : ndarray
+        Sample times [s].
+    x : ndarray
+        Values, shape (n, columns) [any unit].
+    block_s : float
+        Block length [s].
+
+    Returns
+    -------
+    ndarray
+        The slow reference, shape of ``x`` [unit of ``x``].
+    """
     # blocks as runs of one block number: O(n) whatever the time span (a corrupt timestamp years
     # away must not make an edge per block of the empty span)
     k = np.floor((t - t[0]) / block_s)
@@ -43,7 +78,26 @@ def slow_median(t: np.ndarray, x: np.ndarray, block_s: float) -> np.ndarray:
 
 def still_threshold(values: np.ndarray, floor: float, ceiling: float = np.inf, k: float = 6.0) -> float:
     """median + k·MAD (as σ) of the still part, found by iterating from the quietest quarter
-    upwards until the rows below the threshold stop changing; within [``floor``, ``ceiling``]."""
+    upwards until the rows below the threshold stop changing; within [``floor``, ``ceiling``].
+
+    Parameters
+    ----------
+    values : ndarray
+        A per-row statistic (non-finite values ignored) [any unit].
+    floor, ceiling : float
+        Limits of the threshold [unit of ``values``].
+    k : float
+        Multiple of the MAD-based σ (MAD × 1.4826, the normal-consistent scale).
+
+    Returns
+    -------
+    float
+        The threshold [unit of ``values``].
+
+    References
+    ----------
+    Median absolute deviation as a robust σ (1.4826 for normal data), a standard result.
+    """
     v = values[np.isfinite(values)]
     still, thr = v <= np.percentile(v, 25), float(floor)
     for _ in range(20):
@@ -57,7 +111,20 @@ def still_threshold(values: np.ndarray, floor: float, ceiling: float = np.inf, k
 
 
 def dilate(mask: np.ndarray, k: int) -> np.ndarray:
-    """``mask`` widened by ``k`` rows on both sides."""
+    """``mask`` widened by ``k`` rows on both sides.
+
+    Parameters
+    ----------
+    mask : ndarray of bool
+        Rows flagged.
+    k : int
+        Rows added on each side.
+
+    Returns
+    -------
+    ndarray of bool
+        The widened mask.
+    """
     if k <= 0 or not mask.any():
         return mask.copy()
     c = np.r_[0, np.cumsum(mask)]
@@ -66,7 +133,20 @@ def dilate(mask: np.ndarray, k: int) -> np.ndarray:
 
 
 def runs(mask: np.ndarray, breaks=()) -> list[tuple[int, int]]:
-    """(start, stop) of every run of True, cut at the row indices ``breaks``."""
+    """(start, stop) of every run of True, cut at the row indices ``breaks``.
+
+    Parameters
+    ----------
+    mask : ndarray of bool
+        Rows flagged.
+    breaks : sequence of int
+        Row indices where a run is cut.
+
+    Returns
+    -------
+    list of tuple of int
+        Half-open row ranges.
+    """
     edge, cuts, out = np.diff(np.r_[0, mask.astype(np.int8), 0]), np.asarray(breaks, int), []
     for i, j in zip(np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)):
         bounds = np.r_[i, cuts[(cuts > i) & (cuts < j)], j]
@@ -76,7 +156,22 @@ def runs(mask: np.ndarray, breaks=()) -> list[tuple[int, int]]:
 
 def frozen_rows(t: np.ndarray, T: np.ndarray, frozen_s: float) -> np.ndarray:
     """Rows of an identical temperature for > ``frozen_s`` when the rest of the log changes on most
-    steps (a coarse or noise-free thermometer repeats itself in every dwell: nothing is frozen)."""
+    steps (a coarse or noise-free thermometer repeats itself in every dwell: nothing is frozen).
+
+    Parameters
+    ----------
+    t : ndarray
+        Sample times [s].
+    T : ndarray
+        Temperature [°C].
+    frozen_s : float
+        Longest plausible repeat [s].
+
+    Returns
+    -------
+    ndarray of bool
+        Rows of a stuck thermometer.
+    """
     out = np.zeros(T.size, bool)
     same = np.r_[False, np.diff(T) == 0]
     for i, j in runs(same):
@@ -90,24 +185,23 @@ def frozen_rows(t: np.ndarray, T: np.ndarray, frozen_s: float) -> np.ndarray:
 
 def clipped_rows(a: np.ndarray, range_g: float) -> np.ndarray:
     """|a| beyond ``range_g``, or at the axis' log maximum (above 2 g: gravity alone never gets
-    there) for ≥ 3 consecutive samples: a saturated converter reads one value."""
+    there) for ≥ 3 consecutive samples: a saturated converter reads one value.
+
+    Parameters
+    ----------
+    a : ndarray
+        Acceleration, shape (n, axes) [g].
+    range_g : float
+        The part's full scale [g].
+
+    Returns
+    -------
+    ndarray of bool
+        Rows of a saturated converter.
+    """
     mag = np.abs(a)
     out = (mag >= range_g).any(axis=1)
     for k in np.flatnonzero(mag.max(axis=0) > 2.0):
         for i, j in runs(mag[:, k] >= mag[:, k].max() * (1 - 1e-6)):
             out[i:j] |= j - i >= 3
     return out
-
-
-def ramp_rate_c_per_min(time_s, temperature_c, window_s: float = 60.0) -> np.ndarray:
-    """Smoothed dT/dt per row [°C/min]: the mean of the next half window minus the mean of the last,
-    over the difference of their mean times (noise-robust, no filter delay); 0 across time resets."""
-    t, T = np.asarray(time_s, float), np.asarray(temperature_c, float)
-    n = t.size
-    h = max(1, int(round(window_s / 2 / median_dt(t))))
-    i = np.arange(n)
-    lo, hi = np.maximum(i - h, 0), np.minimum(i + h, n - 1)
-    cT, ct = np.r_[0.0, np.cumsum(T - T[0])], np.r_[0.0, np.cumsum(t - t[0])]
-    mean = lambda c, a, b: (c[b + 1] - c[a]) / (b + 1 - a)  # noqa: E731  mean of rows a..b inclusive
-    dt, dT = mean(ct, i, hi) - mean(ct, lo, i), mean(cT, i, hi) - mean(cT, lo, i)
-    return np.where(dt > 0, dT / np.where(dt > 0, dt, 1.0), 0.0) * 60.0

@@ -189,6 +189,16 @@ def read_ulog(path: str | Path) -> list[ImuLog]:
     """Every ``sensor_accel`` instance of a PX4 ULog, in ``multi_id`` order, each with the gyro of
     its ``multi_id`` when ``sensor_gyro`` is logged.
 
+    Parameters
+    ----------
+    path : str or Path
+        The ``.ulg`` log.
+
+    Returns
+    -------
+    list of ImuLog
+        One per instance: time [s], temperature [°C], acceleration [g], gyro [rad/s].
+
     Raises
     ------
     MeasurementError
@@ -206,6 +216,18 @@ def read_ulog(path: str | Path) -> list[ImuLog]:
 
 
 def sniff_ulog(path: Path) -> bool:
+    """Whether ``path`` starts with the ULog signature (its file magic).
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    bool
+        True for a file of this format.
+    """
     with path.open("rb") as f:
         return f.read(len(ULOG_SIGNATURE)) == ULOG_SIGNATURE
 

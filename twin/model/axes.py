@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from twin.model.dataset import LAYOUT, Dataset
-from twin.model.sections import AXES, TestPlanSection
+from twin.model.plan import TestPlanSection
+from twin.model.sections import AXES
 
 #: one-axis path → its per-axis template (``<a>`` = x, y or z); ``truth/*`` → ``truth/<a>/*``
 _RENAMED = {
@@ -30,7 +31,20 @@ AXIS_LAYOUT: dict[str, tuple[str, str]] = {
 
 
 def axis_path(path: str, axis: str) -> str:
-    """Where the one-axis array ``path`` of axis ``axis`` is stored in a three-axis dataset."""
+    """Where the one-axis array ``path`` of axis ``axis`` is stored in a three-axis dataset.
+
+    Parameters
+    ----------
+    path : str
+        One-axis dataset path (``test/applied_g``, ``output/*`` or ``truth/*``).
+    axis : str
+        ``"x"``, ``"y"`` or ``"z"``.
+
+    Returns
+    -------
+    str
+        The per-axis path.
+    """
     if path in _RENAMED:
         return _RENAMED[path][0].replace("<a>", axis)
     if path.startswith("truth/"):
@@ -39,7 +53,20 @@ def axis_path(path: str, axis: str) -> str:
 
 
 def axis_description(description: str, axis: str) -> str:
-    """A one-axis array's description, for axis ``axis``."""
+    """A one-axis array's description, for axis ``axis``.
+
+    Parameters
+    ----------
+    description : str
+        The one-axis description.
+    axis : str
+        ``"x"``, ``"y"`` or ``"z"``.
+
+    Returns
+    -------
+    str
+        ``"axis <axis>: <description>"``.
+    """
     return f"axis {axis}: {description}"
 
 
@@ -51,6 +78,22 @@ def gravity_g(test_plan: TestPlanSection, t_run: np.ndarray) -> np.ndarray:
     gravity vector rotates at a constant rate along the great circle from the previous position
     (a half turn, between opposite positions, goes through the next axis), so |g| = 1 throughout
     and a static-segment detector sees the move.
+
+    Parameters
+    ----------
+    test_plan : TestPlanSection
+        The scenario's test plan.
+    t_run : ndarray
+        Times within the run [s].
+
+    Returns
+    -------
+    ndarray
+        Gravity along x, y, z, shape (n, 3) [g].
+
+    References
+    ----------
+    Rotation along a great circle (spherical linear interpolation), a standard result.
     """
     at_s, vectors = test_plan.gravity_schedule(float(t_run[-1]))
     v = np.asarray(vectors, float)
@@ -71,11 +114,36 @@ def gravity_g(test_plan: TestPlanSection, t_run: np.ndarray) -> np.ndarray:
 
 
 def is_three_axis(ds: Dataset) -> bool:
+    """Whether ``ds`` is a three-axis dataset (has ``output/accel_x_g``).
+
+    Parameters
+    ----------
+    ds : Dataset
+        The dataset.
+
+    Returns
+    -------
+    bool
+        True for a three-axis dataset.
+    """
     return "output/accel_x_g" in ds.arrays
 
 
 def stack(ds: Dataset, template: str) -> np.ndarray:
-    """The per-axis arrays of ``template`` (e.g. ``"output/accel_<a>_g"``) as one (n, 3) array."""
+    """The per-axis arrays of ``template`` (e.g. ``"output/accel_<a>_g"``) as one (n, 3) array.
+
+    Parameters
+    ----------
+    ds : Dataset
+        A three-axis dataset.
+    template : str
+        Path with ``<a>`` for the axis.
+
+    Returns
+    -------
+    ndarray
+        Columns x, y, z [units of the arrays].
+    """
     return np.column_stack([ds[template.replace("<a>", a)] for a in AXES])
 
 
@@ -83,7 +151,18 @@ def imu_log_fields(ds: Dataset) -> dict:
     """The logged columns of a three-axis dataset as the keyword arguments of
     :class:`twin.measurement.ImuLog` (``ImuLog(**imu_log_fields(ds))``): time, the thermometer
     reading as the temperature, the three outputs (n, 3). No truth. (A function of this layer
-    cannot build the ``ImuLog`` itself: measurement sits above the model.)"""
+    cannot build the ``ImuLog`` itself: measurement sits above the model.)
+
+    Parameters
+    ----------
+    ds : Dataset
+        A three-axis dataset.
+
+    Returns
+    -------
+    dict
+        ``time_s`` [s], ``temperature_c`` [°C], ``accel_g`` (n, 3) [g] and the log's metadata.
+    """
     if not is_three_axis(ds):
         raise KeyError("not a three-axis dataset (no output/accel_x_g): simulate a scenario with device.axes")
     return {"time_s": ds["time_s"].astype(float), "temperature_c": ds["temperature/thermometer_c"].astype(float),
@@ -93,7 +172,18 @@ def imu_log_fields(ds: Dataset) -> dict:
 
 
 def summary_fields(ds: Dataset) -> dict:
-    """Drift and output statistics of a three-axis dataset, over all axes (``twin run --json``)."""
+    """Drift and output statistics of a three-axis dataset, over all axes (``twin run --json``).
+
+    Parameters
+    ----------
+    ds : Dataset
+        A three-axis dataset.
+
+    Returns
+    -------
+    dict
+        ``axes``, ``drift_range_mg`` [mg], ``output_rms_minus_truth_mg`` [mg], ``saturated_samples``.
+    """
     drift = stack(ds, "truth/<a>/drift_g")
     err = stack(ds, "output/accel_<a>_g") - stack(ds, "test/gravity_<a>_g") - drift
     return {

@@ -47,7 +47,19 @@ LAYOUT: dict[str, tuple[str, str]] = {
 
 @dataclass
 class Dataset:
-    """Named arrays (``group/name`` paths), their units, and file attributes."""
+    """Named arrays (``group/name`` paths), their units, and file attributes.
+
+    Attributes
+    ----------
+    arrays : dict of str to ndarray
+        Arrays on one time base, by path [units in ``units``].
+    units : dict of str to str
+        Unit of each array (e.g. ``"degC"``, ``"g"``).
+    attrs : dict
+        File attributes (scenario, seed, runs …).
+    descriptions : dict of str to str
+        Description of each array.
+    """
 
     arrays: dict[str, np.ndarray]
     units: dict[str, str]
@@ -61,7 +73,19 @@ class Dataset:
         return int(self.arrays["time_s"].size)
 
     def add(self, path: str, values: np.ndarray, units: str | None = None, description: str | None = None) -> None:
-        """Add an array; units and description default to :data:`LAYOUT`."""
+        """Add an array; units and description default to :data:`LAYOUT`.
+
+        Parameters
+        ----------
+        path : str
+            ``group/name`` path.
+        values : ndarray
+            The array [``units``].
+        units : str, optional
+            Its unit; required for a path not in :data:`LAYOUT`.
+        description : str, optional
+            Its description.
+        """
         lay_units, lay_desc = LAYOUT.get(path, (None, ""))
         units = units if units is not None else lay_units
         if units is None:
@@ -72,6 +96,7 @@ class Dataset:
 
     @property
     def effect_names(self) -> list[str]:
+        """Names of the effects with a ``truth/effects/<name>_g`` array."""
         prefix = "truth/effects/"
         return [p[len(prefix):-2] for p in self.arrays if p.startswith(prefix)]
 
@@ -80,6 +105,20 @@ def write_hdf5(ds: Dataset, path: str | Path, compression: str = "lzf") -> Path:
     """Write atomically: the file is built in memory, written to a temporary file beside ``path``,
     then renamed. An interrupted or failed write (full disk, file-size limit) never leaves a
     truncated file under the final name, nor a temporary one.
+
+    Parameters
+    ----------
+    ds : Dataset
+        The dataset.
+    path : str or Path
+        Output HDF5 file.
+    compression : str
+        h5py compression filter, or ``"none"``.
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     comp = None if compression == "none" else compression
     with atomic_hdf5(Path(path)) as f:  # built in memory: the disk is written by Python, errors are OSError
@@ -96,7 +135,18 @@ def write_hdf5(ds: Dataset, path: str | Path, compression: str = "lzf") -> Path:
 
 
 def read_hdf5(path: str | Path) -> Dataset:
-    """Read a dataset written by :func:`write_hdf5`."""
+    """Read a dataset written by :func:`write_hdf5`.
+
+    Parameters
+    ----------
+    path : str or Path
+        HDF5 file.
+
+    Returns
+    -------
+    Dataset
+        Arrays, units, attributes and descriptions.
+    """
     path = Path(path)
     if not path.is_file():
         raise DatasetError(f"{path}: dataset file not found")

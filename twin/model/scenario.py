@@ -5,8 +5,8 @@ Top-level sections: ``seed``, ``program`` (chamber set-point), ``chamber`` (ther
 (orientations, power cycles, runs, logger), ``twin`` (what the model assumes), ``output``.
 Every key is documented in ``docs/scenario.md``; ``twin schema`` prints the JSON Schema.
 
-The sections themselves are in :mod:`twin.model.sections` (re-exported here), the one-line
-messages in :mod:`twin.model.yaml_loader` and :mod:`twin.text`. This module loads a scenario:
+The sections themselves are in :mod:`twin.model.sections` and :mod:`twin.model.plan` (re-exported
+here), the one-line messages in :mod:`twin.model.yaml_loader` and :mod:`twin.text`. This module loads a scenario:
 YAML → sections → the part named by ``device.sensor.part`` with the scenario's overrides → the
 compiled program, plugins and cross-section checks → :class:`LoadedScenario`.
 """
@@ -26,6 +26,13 @@ from sim.microstructure import CombGeometry
 from sim.sensor import AccelerometerConfig
 from twin.errors import ModelError, ScenarioError
 from twin.io import read_text
+from twin.model.plan import (  # noqa: F401 - re-exported, as the sections below
+    OrientationSection,
+    Scenario,
+    SixPositionSection,
+    TestPlanSection,
+    TumbleSection,
+)
 from twin.model.sections import (  # noqa: F401 - re-exported: the sections are part of this module's API
     AXES,
     AxesSection,
@@ -37,17 +44,12 @@ from twin.model.sections import (  # noqa: F401 - re-exported: the sections are 
     HoldStep,
     LayerSection,
     LumpedSection,
-    OrientationSection,
     OutputSection,
     ProgramSection,
     RampStep,
-    Scenario,
     SensorSection,
-    SixPositionSection,
     StaircaseStep,
-    TestPlanSection,
     ThermometerSection,
-    TumbleSection,
     TwinSection,
 )
 from twin.model.yaml_loader import validation_message
@@ -72,6 +74,17 @@ class LoadedScenario:
 
     ``scenario.device.sensor`` holds the resolved figures (the part's, or the scenario's
     overrides), so every reader sees the values the simulation uses.
+
+    Attributes
+    ----------
+    scenario : Scenario
+        The validated scenario.
+    text, path : str
+        Source text and file name (``<string>`` when parsed from text).
+    program : ChamberProgram
+        The compiled chamber program.
+    part : Part or None
+        The sensor part the figures come from.
     """
 
     scenario: Scenario
@@ -81,6 +94,13 @@ class LoadedScenario:
     part: Part | None = None
 
     def geometry(self) -> CombGeometry:
+        """The comb geometry of ``device.geometry``.
+
+        Returns
+        -------
+        CombGeometry
+            Dimensions [µm] and resonance [Hz].
+        """
         return CombGeometry(**_dataclass_kwargs(self.scenario.device.geometry, CombGeometry))
 
     @property
@@ -89,7 +109,18 @@ class LoadedScenario:
         return AXES if self.scenario.device.axes is not None else ()
 
     def device_composition(self, axis: str | None = None):
-        """The effects the simulated device truly has (of ``axis`` x, y or z for a three-axis device)."""
+        """The effects the simulated device truly has (of ``axis`` x, y or z for a three-axis device).
+
+        Parameters
+        ----------
+        axis : str, optional
+            ``"x"``, ``"y"`` or ``"z"``; ``None`` for a one-axis device.
+
+        Returns
+        -------
+        Composition
+            The device's effects at the scenario's values.
+        """
         from twin.effects import Composition, get_effect
 
         ctx = {"geometry": self.geometry()}
@@ -97,7 +128,18 @@ class LoadedScenario:
         return Composition([get_effect(n)(ctx, **(p or {})) for n, p in effects.items()])
 
     def twin_composition(self, values: dict[str, dict[str, float]] | None = None):
-        """The effects the twin's model assumes (``twin.effects``), at defaults or ``values``."""
+        """The effects the twin's model assumes (``twin.effects``), at defaults or ``values``.
+
+        Parameters
+        ----------
+        values : dict, optional
+            Parameter values by effect name, then parameter name [each parameter's unit].
+
+        Returns
+        -------
+        Composition
+            The twin's effects.
+        """
         from twin.effects import Composition, get_effect
 
         ctx = {"geometry": self.geometry()}
@@ -105,14 +147,33 @@ class LoadedScenario:
         return Composition([get_effect(n)(ctx, **values.get(n, {})) for n in self.scenario.twin.effects])
 
     def sensor(self) -> AccelerometerConfig:
-        """The accelerometer axis: the part's figures at the scenario's full scale and ODR, overrides applied."""
+        """The accelerometer axis: the part's figures at the scenario's full scale and ODR, overrides applied.
+
+        Returns
+        -------
+        AccelerometerConfig
+            Sensor figures (units as in ``sim.sensor``).
+        """
         return AccelerometerConfig(**_dataclass_kwargs(self.scenario.device.sensor, AccelerometerConfig))
 
     def thermometer(self) -> thermal.Thermometer:
+        """The reference thermometer of ``chamber.thermometer``.
+
+        Returns
+        -------
+        Thermometer
+            Node, lag [s], noise and resolution [°C], sample rate [Hz].
+        """
         return thermal.Thermometer(**_dataclass_kwargs(self.scenario.chamber.thermometer, thermal.Thermometer))
 
     def thermal_device(self) -> tuple[thermal.LumpedChain | thermal.ConductionStack, str, str]:
-        """The air → device link and the names of its board and die nodes."""
+        """The air → device link and the names of its board and die nodes.
+
+        Returns
+        -------
+        tuple
+            (``LumpedChain`` or ``ConductionStack``, board node name, die node name).
+        """
         c = self.scenario.chamber
         if c.model == "lumped":
             return thermal.LumpedChain(**_dataclass_kwargs(c.lumped, thermal.LumpedChain)), "board", "die"
@@ -129,7 +190,20 @@ def _base_dir(path: str) -> Path:
 
 
 def parse_scenario(text: str, path: str = "<string>") -> LoadedScenario:
-    """Validate scenario text; raise :class:`ScenarioError` with a one-line message."""
+    """Validate scenario text; raise :class:`ScenarioError` with a one-line message.
+
+    Parameters
+    ----------
+    text : str
+        Scenario YAML.
+    path : str
+        File name shown in messages; relative plugin and part paths are taken from its folder.
+
+    Returns
+    -------
+    LoadedScenario
+        The validated scenario (plugins loaded, sensor figures resolved).
+    """
     data, lines = load_yaml_mapping(text, path, "a scenario is a YAML mapping with a 'program' section")
     try:
         scenario = Scenario.model_validate(data)
@@ -143,7 +217,18 @@ def parse_scenario(text: str, path: str = "<string>") -> LoadedScenario:
 
 
 def load_scenario(path: str | Path) -> LoadedScenario:
-    """Read and validate a scenario file."""
+    """Read and validate a scenario file.
+
+    Parameters
+    ----------
+    path : str or Path
+        Scenario YAML file.
+
+    Returns
+    -------
+    LoadedScenario
+        As :func:`parse_scenario`.
+    """
     return parse_scenario(read_text(path, "scenario file", ScenarioError), str(Path(path)))
 
 
@@ -325,8 +410,14 @@ def _check_orientations(scenario: Scenario, path: str, lines: dict[tuple, int]) 
         raise ScenarioError(f"{where(path, lines, loc)}: test_plan.orientations[{bad[0]}].{what} {expect}")
 
 
-def json_schema() -> dict:
-    """JSON Schema of the scenario file, for editors."""
+def scenario_json_schema() -> dict:
+    """JSON Schema of the scenario file, for editors.
+
+    Returns
+    -------
+    dict
+        Draft 2020-12 schema.
+    """
     schema = Scenario.model_json_schema()
     schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
     schema["title"] = "tde-twin scenario"

@@ -1,5 +1,7 @@
 """The sections of a scenario file: pydantic models giving types, bounds, unknown-key errors
-and the JSON Schema (``twin schema``). Every key is documented in ``docs/scenario.md``.
+and the JSON Schema (``twin schema``). Every key is documented in ``docs/scenario.md``. Here:
+the shared base and field types, ``program``, ``chamber``, ``device``, ``twin`` and ``output``;
+the test plan and the whole :class:`~twin.model.plan.Scenario` are in :mod:`twin.model.plan`.
 
 One source of defaults: where a section mirrors a ``sim`` dataclass (thermometer, lumped chain,
 conduction stack and layers, comb geometry, program steps), its defaults are read from that
@@ -10,10 +12,9 @@ defaults here: they come from the part (``twin/parts/``), the scenario overridin
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 
 from sim import program as prog
 from sim import thermal
@@ -22,7 +23,20 @@ from twin.parts import DEFAULT_PART
 
 
 def default_of(cls: type, name: str) -> Any:
-    """The default of field ``name`` of the dataclass ``cls`` (the one place it is written)."""
+    """The default of field ``name`` of the dataclass ``cls`` (the one place it is written).
+
+    Parameters
+    ----------
+    cls : type
+        A dataclass (e.g. ``sim.thermal.Thermometer``).
+    name : str
+        One of its fields.
+
+    Returns
+    -------
+    Any
+        The field's default, or a fresh value of its default factory [the field's unit].
+    """
     f = next(f for f in dataclasses.fields(cls) if f.name == name)
     if f.default is not dataclasses.MISSING:
         return f.default
@@ -43,14 +57,16 @@ AccelerationG = Annotated[float, Field(ge=-1000.0, le=1000.0)]  # beyond any acc
 OffsetMg = Annotated[float, Field(ge=-1e4, le=1e4)]  # ±10 g [mg]
 
 
-class _Section(BaseModel):
+class Section(BaseModel):
+    """Base of every section: unknown keys, ``.inf``/``.nan`` and changes after validation are refused."""
+
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)  # .inf/.nan are refused at the key
 
 
 # ------------------------------------------------------------------ program
 
 
-class HoldStep(_Section):
+class HoldStep(Section):
     """Hold the set-point; optionally step to ``target_c`` first."""
 
     type: Literal["hold"]
@@ -58,7 +74,7 @@ class HoldStep(_Section):
     target_c: SetpointC | None = Field(default_of(prog.Hold, "target_c"), description="step the set-point here first [°C]")
 
 
-class RampStep(_Section):
+class RampStep(Section):
     """Linear ramp to ``target_c``."""
 
     type: Literal["ramp"]
@@ -66,7 +82,7 @@ class RampStep(_Section):
     ramp_c_per_h: float = Field(ge=-LARGE, le=LARGE, description="rate [°C/h]: a magnitude, or signed towards the target")
 
 
-class StaircaseStep(_Section):
+class StaircaseStep(Section):
     """Steps of ``step_c`` every ``step_s`` up or down to ``target_c`` (0.4 °C every 35 s)."""
 
     type: Literal["staircase"]
@@ -78,7 +94,7 @@ class StaircaseStep(_Section):
 Step = Annotated[Union[HoldStep, RampStep, StaircaseStep], Field(discriminator="type")]
 
 
-class ProgramSection(_Section):
+class ProgramSection(Section):
     """Chamber set-point program: ``steps`` repeated ``cycles`` times from ``start_c``."""
 
     start_c: SetpointC = Field(-20.0, description="set-point at t = 0; the chamber starts in equilibrium there [°C]")
@@ -93,7 +109,8 @@ def _thermometer(name: str) -> Any:
     return default_of(thermal.Thermometer, name)
 
 
-class ThermometerSection(_Section):
+class ThermometerSection(Section):
+    """Reference thermometer (``chamber.thermometer``); defaults: ``sim.thermal.Thermometer``."""
     attached_to: str = Field(_thermometer("attached_to"), description="node it sits on: air, board, die (or a 1-D layer name)")
     tau_s: NonNegativeFloat = Field(_thermometer("tau_s"), description="contact time constant to that node; 0 = no lag [s]")
     accuracy_c: NonNegativeFloat = Field(0.03, description="stated accuracy (the paper's ±0.03 °C); documentation only "
@@ -109,7 +126,8 @@ def _lumped(name: str) -> Any:
     return default_of(thermal.LumpedChain, name)
 
 
-class LumpedSection(_Section):
+class LumpedSection(Section):
+    """Lumped air → board → die chain (``chamber.lumped``); defaults: ``sim.thermal.LumpedChain``."""
     board_tau_s: PositiveFloat = Field(_lumped("board_tau_s"), description="board/fixture convective time constant [s]")
     die_tau_s: PositiveFloat = Field(_lumped("die_tau_s"), description="package/die to board time constant [s]")
     die_to_board_capacity_ratio: PositiveFloat = Field(_lumped("die_to_board_capacity_ratio"),
@@ -118,7 +136,8 @@ class LumpedSection(_Section):
                                                        description="C_board, scales heat flows [J/K]")
 
 
-class LayerSection(_Section):
+class LayerSection(Section):
+    """One layer of the 1-D stack: thickness [mm], k [W/(m K)], ρ [kg/m³], c [J/(kg K)], cells."""
     name: str
     thickness_mm: PositiveFloat
     conductivity_w_per_mk: PositiveFloat
@@ -141,7 +160,8 @@ def _default_layers() -> list[LayerSection]:
     ]
 
 
-class Conduction1DSection(_Section):
+class Conduction1DSection(Section):
+    """1-D conduction through layered fixture/board/die/mould (``chamber.conduction_1d``)."""
     layers: list[LayerSection] = Field(default_factory=_default_layers, min_length=1)
     h_bottom_w_per_m2k: NonNegativeFloat = Field(default_of(thermal.ConductionStack, "h_bottom_w_per_m2k"),
                                                  description="convection, fixture underside ↔ air [W/(m² K)]")
@@ -163,7 +183,8 @@ class Conduction1DSection(_Section):
         return self
 
 
-class ChamberSection(_Section):
+class ChamberSection(Section):
+    """Thermal chamber: air lag [s], the air → device model and the thermometer."""
     model: Literal["lumped", "conduction_1d"] = "lumped"
     air_tau_s: PositiveFloat = Field(60.0, description="air following the set-point (controller, fan) [s]")
     thermal_step_s: PositiveFloat | None = Field(None, description="coarser thermal step, interpolated back [s]")
@@ -178,7 +199,7 @@ class ChamberSection(_Section):
 PositiveNumber = Annotated[Union[int, float], Field(gt=0)]  # an int stays an int (table keys, dataset attrs)
 
 
-class SensorSection(_Section):
+class SensorSection(Section):
     """The accelerometer: a part (its datasheet figures, ``twin parts``) at a full scale and ODR,
     with any figure overridden. ``None`` = the part's figure (choices: the part's lowest)."""
 
@@ -210,7 +231,7 @@ class SensorSection(_Section):
         return self.model if self.model is not None and "part" not in self.model_fields_set else self.part
 
 
-class GeometrySection(_Section):
+class GeometrySection(Section):
     """Comb microstructure (paper §2.1, physics-notes §2.5); used by the microstructure effects.
     Defaults: ``sim.microstructure.CombGeometry``."""
 
@@ -234,7 +255,7 @@ def _default_effects() -> dict[str, EffectParams]:
     return {"static_bias_tc": {}, "scale_factor_tc": {}}
 
 
-class AxisSection(_Section):
+class AxisSection(Section):
     """One sensing axis of a three-axis device: its own drift effects and zero-g offset."""
 
     effects: dict[str, EffectParams] = Field(default_factory=_default_effects,
@@ -242,7 +263,7 @@ class AxisSection(_Section):
     zero_g_offset_mg: OffsetMg = Field(0.0, description="zero-g offset of this axis at the reference temperature [mg]")
 
 
-class AxesSection(_Section):
+class AxesSection(Section):
     """The sensing axes x, y, z of a three-axis device: one die and one thermal path, shared;
     effects, zero-g offsets and noise streams per axis."""
 
@@ -251,7 +272,8 @@ class AxesSection(_Section):
     z: AxisSection
 
 
-class DeviceSection(_Section):
+class DeviceSection(Section):
+    """The simulated device: sensor part, comb geometry, true effects (per axis with ``axes``)."""
     sensor: SensorSection = SensorSection()
     geometry: GeometrySection = GeometrySection()
     effects: dict[str, EffectParams] = Field(
@@ -273,130 +295,11 @@ class DeviceSection(_Section):
         return self
 
 
-# ------------------------------------------------------------------ test plan, twin, output
+# ------------------------------------------------------------------ twin, output
 
 
-GRAVITY_TOLERANCE = 0.01  # |gravity_g| must be 1 within this [g]
-POSITIONS = {f"{sign}{a}": tuple(float(sign + "1") if b == a else 0.0 for b in AXES) for a in AXES for sign in "+-"}
-Position = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
-
-
-class OrientationSection(_Section):
-    at_s: NonNegativeFloat = Field(description="time from the start of each run [s]")
-    applied_g: AccelerationG | None = Field(None, description="one-axis device: acceleration along the sensing axis from "
-                                                      "then on [g]")
-    gravity_g: list[float] | None = Field(None, description="three-axis device: gravity seen by the axes x, y, z from "
-                                                            "then on (a unit vector) [g]")
-
-    @field_validator("gravity_g")
-    @classmethod
-    def _unit_vector(cls, v: list[float] | None) -> list[float] | None:
-        if v is None:
-            return v
-        if len(v) != 3:
-            raise ValueError(f"needs three components [gx, gy, gz] in g, got {len(v)}")
-        norm = math.sqrt(sum(c * c for c in v))
-        if not abs(norm - 1.0) <= GRAVITY_TOLERANCE:
-            raise ValueError(f"|gravity_g| = {norm:.4g} g; a gravity vector must have unit length "
-                             f"(1 ± {GRAVITY_TOLERANCE:g} g), e.g. [0, 0, 1]")
-        return v
-
-    @model_validator(mode="after")
-    def _one_of_applied_or_gravity(self) -> OrientationSection:
-        if (self.applied_g is None) == (self.gravity_g is None):
-            raise ValueError("give one of applied_g [g] (one-axis device) or gravity_g [gx, gy, gz] (three-axis "
-                             f"device, device.axes); got {'both' if self.applied_g is not None else 'neither'}")
-        return self
-
-
-class TumbleSection(_Section):
-    """Orientation blocks repeated through each run (+1 g, −1 g, 0 g tumble)."""
-
-    block_s: PositiveFloat = Field(description="time in each orientation [s]")
-    applied_g: list[AccelerationG] = Field(min_length=1, description="the cycle of orientations [g]")
-
-
-class SixPositionSection(_Section):
-    """Gravity along each sensor axis in turn, blocks of ``block_s`` repeated through each run."""
-
-    block_s: PositiveFloat = Field(description="time in each position [s], the turn into it included")
-    turn_s: NonNegativeFloat = Field(10.0, description="time to turn into the next position [s]; gravity rotates at a "
-                                                       "constant rate from one position to the next")
-    order: list[Position] = Field(default_factory=lambda: list(POSITIONS),
-                                  description="the cycle of positions: +x points up, reads +1 g, ... (all six)")
-
-    @field_validator("order")
-    @classmethod
-    def _all_six(cls, v: list[str]) -> list[str]:
-        missing = [p for p in POSITIONS if p not in v]
-        if missing:
-            raise ValueError(f"must hold all six positions {', '.join(POSITIONS)}; missing {', '.join(missing)}")
-        return v
-
-    @model_validator(mode="after")
-    def _turn_within_block(self) -> SixPositionSection:
-        if self.turn_s >= self.block_s:
-            raise ValueError(f"turn_s {self.turn_s:g} s must be shorter than block_s {self.block_s:g} s")
-        return self
-
-
-class TestPlanSection(_Section):
-    logger_rate_hz: PositiveFloat = 10.0
-    logger_mode: Literal["latest", "average"] = "latest"
-    orientations: list[OrientationSection] = Field(default_factory=lambda: [OrientationSection(at_s=0.0, applied_g=1.0)])
-    power_on_s: list[NonNegativeFloat] = Field(default_factory=lambda: [0.0], description="power-on times in each run [s]")
-    runs: int = Field(1, ge=1, le=100_000, description="independent runs of the program (same device, new noise)")
-    tumble: TumbleSection | None = Field(None, description="cyclic orientation blocks, instead of orientations")
-    run_applied_g: list[AccelerationG] | None = Field(None, min_length=1,
-                                              description="one constant orientation per run, cycling (e.g. [1, -1])")
-    six_position: SixPositionSection | None = Field(None, description="three-axis device: gravity along +x, -x, ... "
-                                                                      "in blocks, instead of orientations")
-
-    @model_validator(mode="after")
-    def _one_orientation_source(self) -> TestPlanSection:
-        given = [k for k in ("orientations", "tumble", "run_applied_g")
-                 if k in self.model_fields_set and getattr(self, k) is not None]
-        if self.six_position is not None and given:
-            raise ValueError(f"six_position and {', '.join(given)}: give one orientation source (six_position "
-                             "cycles gravity vectors as tumble cycles applied_g)")
-        if len(given) > 1:
-            raise ValueError(f"give one of orientations, tumble, run_applied_g; got {', '.join(given)}")
-        return self
-
-    def orientation_schedule(self, duration_s: float) -> tuple[list[float], list[float]]:
-        """(at_s, applied_g) of the orientation steps in one run."""
-        if self.tumble is None:
-            return [o.at_s for o in self.orientations], [o.applied_g for o in self.orientations]
-        n = int(duration_s // self.tumble.block_s) + 1
-        values = self.tumble.applied_g
-        return [k * self.tumble.block_s for k in range(n)], [values[k % len(values)] for k in range(n)]
-
-    def gravity_schedule(self, duration_s: float) -> tuple[list[float], list[tuple[float, float, float]]]:
-        """(at_s, gravity_g) of the orientation steps in one run of a three-axis device; +z up
-        (gravity [0, 0, 1]) when the test plan gives no orientation."""
-        if self.six_position is not None:
-            six = self.six_position
-            n = int(duration_s // six.block_s) + 1
-            return [k * six.block_s for k in range(n)], [POSITIONS[six.order[k % len(six.order)]] for k in range(n)]
-        if "orientations" not in self.model_fields_set:
-            return [0.0], [POSITIONS["+z"]]
-        return [o.at_s for o in self.orientations], [tuple(o.gravity_g) for o in self.orientations]
-
-    @field_validator("orientations")
-    @classmethod
-    def _sorted(cls, v: list[OrientationSection]) -> list[OrientationSection]:
-        if not v:
-            raise ValueError("needs at least one orientation")
-        times = [o.at_s for o in v]
-        same = [t for a, t in zip(times, times[1:]) if a == t]
-        if same:  # one would silently win
-            raise ValueError(f"two orientations at the same instant at_s {same[0]:g} s; give each instant once")
-        if times != sorted(times):
-            raise ValueError("orientations must be in increasing at_s")
-        return v
-
-
-class TwinSection(_Section):
+class TwinSection(Section):
+    """The twin's model: the effects it assumes and user effect plugins."""
     effects: list[str] = Field(default_factory=lambda: ["static_bias_tc", "scale_factor_tc"],
                                description="effects the twin's model assumes")
     plugins: list[str] = Field(default_factory=list,
@@ -404,20 +307,7 @@ class TwinSection(_Section):
                                            "loading one runs its code")
 
 
-class OutputSection(_Section):
+class OutputSection(Section):
+    """Default HDF5 output path and compression."""
     path: str | None = Field(None, description="default HDF5 output path")
     compression: Literal["lzf", "gzip", "none"] = "lzf"
-
-
-class Scenario(_Section):
-    """A thermal-chamber test scenario."""
-
-    seed: int = Field(0, ge=0, le=2**63 - 1, description="seed of every random draw (a 64-bit integer)")
-    name: str = ""
-    description: str = ""
-    program: ProgramSection
-    chamber: ChamberSection = ChamberSection()
-    device: DeviceSection = DeviceSection()
-    test_plan: TestPlanSection = TestPlanSection()
-    twin: TwinSection = TwinSection()
-    output: OutputSection = OutputSection()

@@ -30,14 +30,38 @@ STAGES = ("program", "thermal chain", "effects", "sensor")
 
 
 def time_base(loaded: LoadedScenario) -> np.ndarray:
-    """Sample times [s] of one run: the logger grid over the program, end included."""
+    """Sample times of one run: the logger grid over the program, end included.
+
+    Parameters
+    ----------
+    loaded : LoadedScenario
+        The scenario (program duration, logger rate).
+
+    Returns
+    -------
+    ndarray
+        Sample times from the run's start [s].
+    """
     rate = loaded.scenario.test_plan.logger_rate_hz
     n = int(np.floor(loaded.program.duration_s * rate + 1e-9)) + 1
     return np.arange(n) / rate
 
 
 def simulate_thermal(loaded: LoadedScenario, time_s: np.ndarray | None = None) -> ThermalResult:
-    """The thermal chain of one run on the logger time base (deterministic)."""
+    """The thermal chain of one run on the logger time base (deterministic).
+
+    Parameters
+    ----------
+    loaded : LoadedScenario
+        The scenario (program, chamber, thermometer).
+    time_s : ndarray, optional
+        Sample times [s]; default :func:`time_base`.
+
+    Returns
+    -------
+    ThermalResult
+        Set-point, air, board, die and thermometer-element temperatures [°C].
+    """
     t = time_base(loaded) if time_s is None else time_s
     device, board, die = loaded.thermal_device()
     c = loaded.scenario.chamber
@@ -164,10 +188,18 @@ def simulate(
     Parameters
     ----------
     loaded : LoadedScenario
+        The scenario.
     seed : int, optional
         Overrides the scenario's ``seed``.
     progress : callable, optional
         Called with each stage's name as it starts.
+
+    Returns
+    -------
+    Dataset
+        Time [s], temperatures [°C], applied acceleration and output [g], and the truth arrays
+        (drift [g], scale-factor error [1], noise [g], per-effect contributions [g]); see
+        ``docs/dataset.md``.
     """
     scn = loaded.scenario
     seed = scn.seed if seed is None else int(seed)
@@ -266,7 +298,20 @@ def simulate(
 
 def summary(ds: Dataset) -> dict:
     """Machine-readable summary of a simulated dataset (``twin run --json``); over all axes of a
-    three-axis dataset (its ``axes`` key lists them)."""
+    three-axis dataset (its ``axes`` key lists them).
+
+    Parameters
+    ----------
+    ds : Dataset
+        A simulated dataset.
+
+    Returns
+    -------
+    dict
+        Samples, duration [h], seed, runs, effects, set-point and die ranges [°C], die minus
+        thermometer [°C], drift range [mg], white-noise σ [mg], output RMS minus truth [mg] and
+        saturated samples.
+    """
     t = ds["time_s"]
     if axes.is_three_axis(ds):
         die, thermo = ds["temperature/die_c"], ds["temperature/thermometer_c"]

@@ -63,7 +63,24 @@ _BOUNDS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
 
 def validation_message(err: ValidationError, root: type[BaseModel], path: str, lines: dict[tuple, int]) -> str:
     """One line for a pydantic error: ``file:line: key.path: what was expected``; an unknown key
-    gets the closest valid one, an unknown step type the closest type."""
+    gets the closest valid one, an unknown step type the closest type.
+
+    Parameters
+    ----------
+    err : ValidationError
+        The pydantic error (its first error, misspelt keys first, is reported).
+    root : type of BaseModel
+        Model the document was validated against.
+    path : str
+        File name shown.
+    lines : dict of tuple to int
+        Line of each key path in the file.
+
+    Returns
+    -------
+    str
+        The message.
+    """
     # A misspelt key shows as "unknown" and "missing" at once; the unknown one, with its
     # suggestion, is the message that helps.
     order = {"extra_forbidden": 0, "union_tag_invalid": 1}

@@ -15,7 +15,24 @@ MEANING = {
 
 
 def comb_report(geometry: CombGeometry, acceleration_g: float = 1.0, t_low_c: float = -20.0, t_high_c: float = 50.0) -> dict:
-    """Capacitances at 25 °C and, per reading, the drift slope and ends over the range."""
+    """Capacitances at 25 °C and, per reading, the drift slope and ends over the range.
+
+    Parameters
+    ----------
+    geometry : CombGeometry
+        The comb's geometry.
+    acceleration_g : float
+        Applied acceleration [g].
+    t_low_c, t_high_c : float
+        Temperature range [°C].
+
+    Returns
+    -------
+    dict
+        ``C1_fF``, ``C2_fF`` [fF], ``signal_fF_per_g`` [fF/g], ``du_1g_nm`` (displacement at 1 g) [nm],
+        ``acceleration_g`` [g], ``range_c`` [°C] and ``readings``: per reading (:data:`MEANING`) its
+        slope [mg/°C], curvature [mg/°C²], drift at both ends and largest offset [mg].
+    """
     check_gaps(geometry, max(abs(acceleration_g), 1e-12), t_low_c=t_low_c, t_high_c=t_high_c)
     c = capacitances_f(geometry, 25.0, 1.0, "S")
     temps = np.linspace(t_low_c, t_high_c, 141)

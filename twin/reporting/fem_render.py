@@ -35,7 +35,20 @@ def _grid(sol):
 
 
 def vertex_displacement_m(sol, temperature_c: float) -> np.ndarray:
-    """(n_vertices, 2) displacement [m] at the mesh corners at ``temperature_c`` (from the cure state)."""
+    """(n_vertices, 2) displacement [m] at the mesh corners at ``temperature_c`` (from the cure state).
+
+    Parameters
+    ----------
+    sol : object
+        A solved package cross-section (:mod:`sim.fem`).
+    temperature_c : float
+        Temperature [°C].
+
+    Returns
+    -------
+    np.ndarray
+        Displacement x, y per corner node [m].
+    """
     u = sol.displacement(temperature_c)
     return u[sol.system.basis.nodal_dofs].T
 
@@ -71,6 +84,23 @@ def write_atomically(path: Path, write) -> Path:
 
     The renderer runs in C (VTK, the GIF encoder) and can swallow the KeyboardInterrupt a SIGINT
     raises while it is inside, so the signal is also recorded and honoured before the rename.
+
+    Parameters
+    ----------
+    path : Path
+        The file to produce.
+    write : callable
+        ``write(tmp)`` writes the file at the temporary path ``tmp``.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        Ctrl-C during the write; no file is left.
     """
     import signal
     import threading
@@ -101,7 +131,24 @@ def write_atomically(path: Path, write) -> Path:
 
 
 def render_fem_png(sol, temperature_c: float, path: str | Path, *, exaggeration: float = 50.0) -> Path:
-    """One image of the cross-section deformed at ``temperature_c``, written atomically."""
+    """One image of the cross-section deformed at ``temperature_c``, written atomically.
+
+    Parameters
+    ----------
+    sol : object
+        A solved package cross-section (:mod:`sim.fem`).
+    temperature_c : float
+        Temperature [°C].
+    path : str or Path
+        The PNG to write.
+    exaggeration : float
+        Displacement drawn × this [1].
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     pv = _pyvista()
     grid, rest = _grid(sol)
     peak = _deform(grid, rest, sol, temperature_c, exaggeration)
@@ -119,7 +166,26 @@ def render_fem_png(sol, temperature_c: float, path: str | Path, *, exaggeration:
 
 def render_fem_sweep(sol, temperatures_c, path: str | Path, *, exaggeration: float = 50.0, progress=None) -> Path:
     """Animated GIF (or MP4 by suffix), one frame per temperature, colour scale fixed over the sweep. Each frame costs a
-    linear combination of the unit-load solutions, not a solve."""
+    linear combination of the unit-load solutions, not a solve.
+
+    Parameters
+    ----------
+    sol : object
+        A solved package cross-section (:mod:`sim.fem`).
+    temperatures_c : array_like
+        One frame per temperature [°C].
+    path : str or Path
+        The GIF (or ``.mp4``) to write.
+    exaggeration : float
+        Displacement drawn × this [1].
+    progress : callable, optional
+        Called with each frame's temperature [°C].
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     pv = _pyvista()
     temps = np.asarray(temperatures_c, float)
     grid, rest = _grid(sol)
@@ -144,20 +210,3 @@ def render_fem_sweep(sol, temperatures_c, path: str | Path, *, exaggeration: flo
             p.close()
 
     return write_atomically(path, write)
-
-
-def render_package(loaded, output: str | Path, *, temperature_c: float | None = None, sweep_c=None,
-                   exaggeration: float = 50.0, progress=None) -> dict:
-    """``twin render --fem``: the scenario's package_fem design solved and drawn (PNG or sweep GIF)."""
-    from twin.reporting.package_report import package_effect, solve_checked
-
-    effect, _ = package_effect(loaded)
-    sol = solve_checked(effect)
-    if sweep_c is None:
-        render_fem_png(sol, temperature_c, output, exaggeration=exaggeration)
-        temps = [float(temperature_c)]
-    else:
-        render_fem_sweep(sol, sweep_c, output, exaggeration=exaggeration, progress=progress)
-        temps = [float(t) for t in sweep_c]
-    return {"output": str(output), "temperatures_c": temps, "frames": len(temps), "exaggeration": exaggeration,
-            "dofs": sol.n_dofs, "field": "package_fem"}

@@ -1,4 +1,9 @@
-"""The paper's derived numbers next to what the code computes (``twin test-design``)."""
+"""The paper's derived numbers next to what the code computes (``twin test-design``).
+
+The paper is the project's source paper (README): Qi et al., *A Novel Temperature Drift Error
+Precise Estimation Model for MEMS Accelerometers Using Microstructure Thermal Analysis*,
+Micromachines 2022; equation and table numbers are its own.
+"""
 
 from __future__ import annotations
 
@@ -10,8 +15,22 @@ def design_report(
 ) -> dict:
     """Eq. (33)-(35) as printed, and the physical time scales they should be read against.
 
-    Returns ``{"items": [{name, value, unit, kind, note}, ...]}``; ``kind`` is ``paper-as-printed``
-    or ``physical`` so nobody mistakes eq. (31) for a time.
+    Parameters
+    ----------
+    lsb_mg : float
+        One output digit [mg].
+    tcoff_mg_per_c : float
+        Offset tempco [mg/°C].
+    tcso_pct_per_c : float
+        Sensitivity tempco [%/°C].
+    chamber_length_m : float
+        Chamber length L [m].
+
+    Returns
+    -------
+    dict
+        ``{"items": [{name, value, unit, kind, note}, ...]}``; ``kind`` is ``paper-as-printed``
+        or ``physical`` so nobody mistakes eq. (31) for a time.
     """
     beta = calc.paper_beta_mg_per_c(tcso_pct_per_c)
     l_half = chamber_length_m / 2
@@ -56,32 +75,32 @@ TABLE2 = [  # iteration, MSE model 2, MSE model 3, printed "iteration effect" [%
 ]
 
 
-def eq45(x: float, y: float) -> float:
-    """The paper's optimiser test function, eq. (45): z = −y sin(2πx) − x cos(2πy)."""
-    import numpy as np
-
-    return float(-y * np.sin(2 * np.pi * x) - x * np.cos(2 * np.pi * y))
-
-
 def eq45_minimum() -> dict:
     """Global minimum of eq. (45) on [−2, 2]²: closed form, confirmed numerically.
 
     The minimum lies on the edge y = −2, where z = 2 sin(2πx) − x; there
     x* = 7/4 + arcsin(1/(4π))/(2π) and z* = −2√(1 − 1/(16π²)) − x* (physics-notes §2.6).
+
+    Returns
+    -------
+    dict
+        ``x``, ``y``, ``z`` in closed form and ``numerical_x``, ``numerical_y``, ``numerical_z`` [1].
     """
     import numpy as np
     from scipy.optimize import minimize
+
+    from fitting.optimizers import eq45  # the one eq. (45), batched
 
     x_star = 7 / 4 + np.arcsin(1 / (4 * np.pi)) / (2 * np.pi)
     z_star = -2 * np.sqrt(1 - 1 / (16 * np.pi**2)) - x_star
     # numerical confirmation: grid, then bounded polish from the best grid points
     g = np.linspace(-2, 2, 801)
     X, Y = np.meshgrid(g, g, indexing="ij")
-    Z = -Y * np.sin(2 * np.pi * X) - X * np.cos(2 * np.pi * Y)
+    Z = eq45(np.column_stack([X.ravel(), Y.ravel()])).reshape(X.shape)
     best = None
     for k in np.argsort(Z, axis=None)[:20]:
         i, j = np.unravel_index(k, Z.shape)
-        r = minimize(lambda p: eq45(*p), [X[i, j], Y[i, j]], method="L-BFGS-B", bounds=[(-2, 2), (-2, 2)],
+        r = minimize(lambda p: float(eq45(p)[0]), [X[i, j], Y[i, j]], method="L-BFGS-B", bounds=[(-2, 2), (-2, 2)],
                      options={"ftol": 1e-15, "gtol": 1e-12})
         if best is None or r.fun < best.fun:
             best = r
@@ -95,7 +114,14 @@ def _verdict(same: bool | None, why: str) -> str:
 
 
 def paper_report() -> dict:
-    """Each derived number of the paper next to what the code computes, with a verdict."""
+    """Each derived number of the paper next to what the code computes, with a verdict.
+
+    Returns
+    -------
+    dict
+        ``items`` (item, paper, computed, unit, verdict: ``reproduced``, ``differs`` or ``computed``)
+        and the count of each verdict.
+    """
     from sim.materials import cte_polynomial_orders, silicon_cte_per_k
 
     items = []

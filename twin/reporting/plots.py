@@ -9,10 +9,7 @@ from __future__ import annotations
 
 import base64
 import io
-from dataclasses import dataclass, field
 
-import numpy as np
-from scipy.ndimage import uniform_filter1d
 
 
 def _axes(ax, figsize):
@@ -28,7 +25,16 @@ def _axes(ax, figsize):
 
 
 def png_base64(display_or_figure) -> str:
-    """The drawn figure of a display (or a matplotlib figure) as base64 PNG; the figure is closed."""
+    """The drawn figure of a display (or a matplotlib figure) as base64 PNG; the figure is closed.
+
+    Parameters
+    ----------
+    display_or_figure : Display or matplotlib.figure.Figure
+
+    Returns
+    -------
+    str
+    """
     import matplotlib.pyplot as plt
 
     fig = getattr(display_or_figure, "figure_", display_or_figure)
@@ -45,6 +51,17 @@ class Display:
     title: str = ""
 
     def plot(self, ax=None):
+        """Draw onto ``ax`` (a new figure when None).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+
+        Returns
+        -------
+        Display
+            Itself, with ``ax_`` and ``figure_`` set.
+        """
         self.ax_ = _axes(ax, self.figsize)
         self.figure_ = self.ax_.figure
         self._draw(self.ax_)
@@ -54,289 +71,16 @@ class Display:
         raise NotImplementedError
 
 
-def _stride(n: int) -> int:
-    return max(1, n // 20000)  # 20k points show the same picture
+def stride(n: int) -> int:
+    """Every how many samples a line plot keeps (20 000 points show the same picture).
 
+    Parameters
+    ----------
+    n : int
+        Samples.
 
-# ------------------------------------------------------------------------------ compare report
-
-
-@dataclass
-class MeasuredVsTwinDisplay(Display):
-    """Measured output and the twin over time, heating/cooling shaded, temperature on the right."""
-
-    time_h: np.ndarray
-    measured_mg: np.ndarray
-    twin_mg: np.ndarray
-    temperature_c: np.ndarray
-    segment_kind: np.ndarray
-    figsize = (10, 3.6)
-    title = "Measured vs twin (heating/cooling shaded; temperature on the right)"
-
-    @classmethod
-    def from_diagnosis(cls, d):
-        p, m = d.problem, d.problem.m
-        pred = p.applied + d.calibration.prediction_minus_applied
-        return cls(m.time_s / 3600, m.output_g * 1e3, pred * 1e3, m.temperature_c, d.segments["kind"])
-
-    def _draw(self, ax):
-        s = _stride(self.time_h.size)
-        t = self.time_h[::s]
-        ax.plot(t, self.measured_mg[::s], ",", color="0.6", label="measured")
-        ax.plot(t, self.twin_mg[::s], "-", color="C0", lw=1, label="twin")
-        for k, c in (("heating", "C3"), ("cooling", "C0")):
-            sel = self.segment_kind == k
-            if sel.any():
-                ax.fill_between(t, 0, 1, where=sel[::s], transform=ax.get_xaxis_transform(), color=c, alpha=0.07,
-                                label=k)
-        ax.set_xlabel("time [h]")
-        ax.set_ylabel("output [mg]")
-        ax2 = ax.twinx()
-        ax2.plot(t, self.temperature_c[::s], color="C1", lw=0.8)
-        ax2.set_ylabel("temperature [°C]", color="C1")
-        ax.legend(loc="upper left", fontsize=8, ncol=4)
-
-
-@dataclass
-class ResidualDisplay(Display):
-    """Residual over time with its 10-min mean and the ±2σ noise band."""
-
-    time_h: np.ndarray
-    residual_mg: np.ndarray
-    noise_floor_mg: float
-    rate_hz: float
-    figsize = (10, 3.2)
-    title = "Residual (measured − twin) with the noise band"
-
-    @classmethod
-    def from_diagnosis(cls, d):
-        return cls(d.problem.m.time_s / 3600, d.calibration.residual * 1e3, d.noise_floor_g * 1e3, d.problem.rate_hz)
-
-    def _draw(self, ax):
-        s = _stride(self.time_h.size)
-        ax.plot(self.time_h[::s], self.residual_mg[::s], ",", color="0.5")
-        w = max(1, int(600 * self.rate_hz))
-        ax.plot(self.time_h, uniform_filter1d(self.residual_mg, w, mode="nearest"), color="C3", lw=1.2,
-                label="10-min mean")
-        ax.axhspan(-2 * self.noise_floor_mg, 2 * self.noise_floor_mg, color="C2", alpha=0.12, label="±2σ noise floor")
-        ax.set_xlabel("time [h]")
-        ax.set_ylabel("residual [mg]")
-        ax.legend(fontsize=8)
-
-
-@dataclass
-class HysteresisDisplay(Display):
-    """Block-mean residual against temperature, by segment kind, with the loop area per run."""
-
-    temperature_c: np.ndarray
-    residual_mg: np.ndarray
-    segment_kind: np.ndarray
-    loop_area_mg_c: dict
-    average_s: float
-    figsize = (6.5, 4.2)
-    title = "Hysteresis view: residual vs temperature"
-
-    @classmethod
-    def from_diagnosis(cls, d):
-        p = d.problem
-        kind = np.array(d.segments["kind"])[p.avg.starts]
-        return cls(p.avg(p.inputs.die_c), p.avg(d.calibration.residual) * 1e3, kind, d.segments["loop_area_mg_c"],
-                   p.config.average_s)
-
-    def _draw(self, ax):
-        for k, c in (("heating", "C3"), ("cooling", "C0"), ("dwell", "0.5")):
-            sel = self.segment_kind == k
-            ax.plot(self.temperature_c[sel], self.residual_mg[sel], ".", ms=3, color=c, label=k)
-        area = ", ".join(f"run {k}: {v:.2f}" for k, v in self.loop_area_mg_c.items())
-        ax.set_title(f"loop area ∮r dT [mg·°C]: {area}", fontsize=9)
-        ax.set_xlabel("temperature [°C]")
-        ax.set_ylabel(f"residual, {self.average_s:g}-s mean [mg]")
-        ax.legend(fontsize=8)
-
-
-@dataclass
-class HalfSumDifferenceDisplay(Display):
-    """±1 g half-sum (bias-like) and half-difference (scale-factor-like) of the residual vs temperature."""
-
-    temperature_c: np.ndarray
-    half_sum_mg: np.ndarray
-    half_difference_mg: np.ndarray
-    figsize = (6.5, 4)
-    title = "±1 g half-sum and half-difference"
-
-    @classmethod
-    def from_diagnosis(cls, d):
-        """``None`` unless the measurement holds both +1 g and −1 g."""
-        p = d.problem
-        if not (p.m.applied_known and np.any(np.isclose(p.applied, 1)) and np.any(np.isclose(p.applied, -1))):
-            return None
-        tavg, ravg, aavg = p.avg(p.inputs.die_c), p.avg(d.calibration.residual) * 1e3, p.avg(p.applied)
-        bins = np.linspace(tavg.min(), tavg.max(), 25)
-
-        def binned(sel):
-            return np.array([np.mean(ravg[sel & (tavg >= a) & (tavg < b)]) if np.any(sel & (tavg >= a) & (tavg < b))
-                             else np.nan for a, b in zip(bins[:-1], bins[1:])])
-
-        rp, rn = binned(aavg > 0.9), binned(aavg < -0.9)
-        return cls(0.5 * (bins[1:] + bins[:-1]), 0.5 * (rp + rn), 0.5 * (rp - rn))
-
-    def _draw(self, ax):
-        ax.plot(self.temperature_c, self.half_sum_mg, "o-", label="half-sum (bias-like)")
-        ax.plot(self.temperature_c, self.half_difference_mg, "s-", label="half-difference (scale-factor-like)")
-        ax.set_xlabel("temperature [°C]")
-        ax.set_ylabel("residual [mg]")
-        ax.legend(fontsize=8)
-
-
-@dataclass
-class DwellSettlingDisplay(Display):
-    """The residual's 1-min mean after each dwell start (up to eight dwells)."""
-
-    curves: list = field(default_factory=list)  # (minutes since dwell start, residual [mg]) per dwell
-    figsize = (6.5, 3.8)
-    title = "Dwell settling (minutes: lag; hours: creep; flat: static)"
-
-    @classmethod
-    def from_diagnosis(cls, d):
-        """``None`` when the measurement has no dwell."""
-        p, m = d.problem, d.problem.m
-        dwell = d.segments["kind"] == "dwell"
-        starts = np.flatnonzero(np.diff(dwell.astype(int)) == 1) + 1
-        if not starts.size:
-            return None
-        w = max(1, int(60 * p.rate_hz))
-        r_mg = d.calibration.residual * 1e3
-        curves = []
-        for s in starts[:8]:
-            e = s
-            while e < dwell.size and dwell[e]:
-                e += 1
-            curves.append(((m.time_s[s:e] - m.time_s[s]) / 60, uniform_filter1d(r_mg[s:e], w, mode="nearest")))
-        return cls(curves)
-
-    def _draw(self, ax):
-        for minutes, residual_mg in self.curves:
-            ax.plot(minutes, residual_mg, lw=1)
-        ax.set_xlabel("time since dwell start [min]")
-        ax.set_ylabel("residual, 1-min mean [mg]")
-
-
-@dataclass
-class ResidualACFDisplay(Display):
-    """Autocorrelation of the block-mean residual with the ±1.96/√N white-noise bounds."""
-
-    lag_min: np.ndarray
-    acf: np.ndarray
-    n_blocks: int
-    bar_width_min: float
-    figsize = (5.5, 3.8)
-    title = "Residual autocorrelation"
-
-    @classmethod
-    def from_diagnosis(cls, d):
-        p = d.problem
-        ra = p.avg(d.calibration.residual)
-        lags = np.arange(1, min(60, ra.size // 4))
-        acf = np.array([np.corrcoef(ra[:-k], ra[k:])[0, 1] for k in lags])
-        return cls(lags * p.config.average_s / 60, acf, ra.size, p.config.average_s / 60 * 0.8)
-
-    def _draw(self, ax):
-        ax.bar(self.lag_min, self.acf, width=self.bar_width_min)
-        for sign in (1, -1):
-            ax.axhline(sign * 1.96 / np.sqrt(self.n_blocks), color="k", ls=":")
-        ax.set_xlabel("lag [min]")
-        ax.set_ylabel("residual ACF")
-
-
-@dataclass
-class AllanDeviationDisplay(Display):
-    """Allan deviation of the residual beside white noise at the floor (and the sensor model's)."""
-
-    tau_s: np.ndarray
-    adev_mg: np.ndarray
-    noise_floor_mg: float
-    noise_floor_model_mg: float | None
-    rate_hz: float
-    figsize = (5.5, 3.8)
-    title = "Allan deviation against a noise-only reference"
-
-    @classmethod
-    def from_diagnosis(cls, d):
-        from twin.diagnosis.noise import allan_deviation
-
-        taus, adev = allan_deviation(d.calibration.residual, d.problem.rate_hz)
-        model = d.noise_floor_model_g * 1e3 if d.noise_floor_model_g else None
-        return cls(taus, adev * 1e3, d.noise_floor_g * 1e3, model, d.problem.rate_hz)
-
-    def _draw(self, ax):
-        ax.loglog(self.tau_s, self.adev_mg, label="residual")
-        white = 1 / np.sqrt(self.tau_s * self.rate_hz)
-        ax.loglog(self.tau_s, self.noise_floor_mg * white, "--", label="white noise at the floor")
-        if self.noise_floor_model_mg:
-            ax.loglog(self.tau_s, self.noise_floor_model_mg * white, ":", label="sensor model")
-        ax.set_xlabel("averaging time [s]")
-        ax.set_ylabel("Allan deviation [mg]")
-        ax.legend(fontsize=8)
-
-
-@dataclass
-class CandidateRankingDisplay(Display):
-    """ΔBIC of the best-ranked candidates (log scale), significant ones in red."""
-
-    labels: list
-    delta_bic: list
-    significant: list
-    threshold: float
-    title = "Candidate ranking"
-
-    @classmethod
-    def from_diagnosis(cls, d, top: int = 8):
-        """``None`` when nothing was screened."""
-        c = d.candidates[:top]
-        if not c:
-            return None
-        return cls([f"{x.effect} ({x.family})" for x in c], [max(x.delta_bic, 0.1) for x in c],
-                   [x.significant for x in c], d.problem.config.min_delta_bic)
-
-    def _draw(self, ax):
-        colors = ["C3" if s else "0.6" for s in self.significant]
-        ax.barh(self.labels[::-1], self.delta_bic[::-1], color=colors[::-1])
-        ax.set_xscale("log")
-        ax.axvline(self.threshold, color="k", ls=":")
-        ax.set_xlabel("ΔBIC (red: significant)")
-
-
-@dataclass
-class LedgerDisplay(Display):
-    """The residual RMS falling as effects are added, beside the noise floor."""
-
-    labels: list
-    rms_mg: list
-    noise_floor_mg: list
-    title = "The error falling as effects are added (ledger)"
-
-    @classmethod
-    def from_ledger(cls, ledger: list[dict]):
-        """``None`` for fewer than two ledger entries."""
-        if len(ledger) < 2:
-            return None
-        labels = ["+".join(e["model"]) if len(e["model"]) < 4 else f"… +{e['model'][-1]}" for e in ledger]
-        return cls(labels, [e["rms_residual_g"] * 1e3 for e in ledger], [e["noise_floor_g"] * 1e3 for e in ledger])
-
-    def _draw(self, ax):
-        x = range(len(self.labels))
-        ax.plot(x, self.rms_mg, "o-", label="residual RMS")
-        ax.plot(x, self.noise_floor_mg, "--", label="noise floor")
-        ax.set_xticks(x, self.labels, rotation=20, ha="right", fontsize=7)
-        ax.set_ylabel("mg")
-        ax.legend(fontsize=8)
-
-
-def diagnosis_displays(d, ledger: list[dict]) -> list[Display]:
-    """Every display of a compare report, in report order (absent ones skipped)."""
-    shown = [MeasuredVsTwinDisplay.from_diagnosis(d), ResidualDisplay.from_diagnosis(d),
-             HysteresisDisplay.from_diagnosis(d), HalfSumDifferenceDisplay.from_diagnosis(d),
-             DwellSettlingDisplay.from_diagnosis(d), ResidualACFDisplay.from_diagnosis(d),
-             AllanDeviationDisplay.from_diagnosis(d), CandidateRankingDisplay.from_diagnosis(d),
-             LedgerDisplay.from_ledger(ledger)]
-    return [s for s in shown if s is not None]
+    Returns
+    -------
+    int
+    """
+    return max(1, n // 20000)

@@ -76,7 +76,29 @@ def _title(temperature_c, exaggeration, reading, acceleration_g):
 
 def render_png(geometry: CombGeometry, temperature_c: float, path: str | Path, *, exaggeration: float = 2000.0,
                acceleration_g: float = 0.0, reading: str = "S", fingers: int = 6) -> Path:
-    """One image of the comb deformed at ``temperature_c``, written atomically to ``path``."""
+    """One image of the comb deformed at ``temperature_c``, written atomically to ``path``.
+
+    Parameters
+    ----------
+    geometry : CombGeometry
+    temperature_c : float
+        Temperature [°C].
+    path : str or Path
+        The PNG to write.
+    exaggeration : float
+        Displacement drawn × this [1].
+    acceleration_g : float
+        Applied acceleration [g].
+    reading : str
+        How the thermal expansion is read (``P``, ``S``, ``H``, ``HE``: :data:`twin.reporting.comb.MEANING`).
+    fingers : int
+        Comb fingers drawn.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     meshes = _meshes(geometry, fingers)
     peak = _deform(meshes, geometry, temperature_c, acceleration_g, reading, exaggeration)
     p = _plotter()
@@ -99,6 +121,23 @@ def render_sweep(geometry: CombGeometry, temperatures_c: np.ndarray, path: str |
     """Animated GIF (or MP4 by suffix, needs imageio-ffmpeg) of a temperature sweep, one frame per temperature.
 
     The colour scale is fixed over the sweep so frames compare.
+
+    Parameters
+    ----------
+    geometry : CombGeometry
+    temperatures_c : np.ndarray
+        One frame per temperature [°C].
+    path : str or Path
+        The GIF (or ``.mp4``) to write.
+    exaggeration, acceleration_g, reading, fingers
+        As for :func:`render_png` ([1], [g], reading, count).
+    progress : callable, optional
+        Called with each frame's temperature [°C].
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     temps = np.asarray(temperatures_c, float)
     meshes = _meshes(geometry, fingers)
@@ -133,7 +172,25 @@ MAX_FRAMES = 1000  # a sweep's frames (each a full render; 1000 take minutes)
 
 
 def check_temperature_c(temperature_c: float, what: str = "--temperature") -> float:
-    """A temperature inside the silicon model's validity (Okada & Tokumaru 1984, 120-1500 K), else ValueError."""
+    """A temperature inside the silicon model's validity (Okada & Tokumaru 1984, 120-1500 K), else ValueError.
+
+    Parameters
+    ----------
+    temperature_c : float
+        Temperature [°C].
+    what : str
+        The option named in the error.
+
+    Returns
+    -------
+    float
+        ``temperature_c`` [°C].
+
+    Raises
+    ------
+    ValueError
+        Not finite, or outside the model's range.
+    """
     from sim.materials import KELVIN, OKADA_VALID_K
 
     lo, hi = (k - KELVIN for k in OKADA_VALID_K)
@@ -145,7 +202,23 @@ def check_temperature_c(temperature_c: float, what: str = "--temperature") -> fl
 
 def parse_sweep(spec: str) -> np.ndarray:
     """``"-20:50:5"`` → [-20, -15, …, 50] (end included when on the grid); at most :data:`MAX_FRAMES`
-    frames, every temperature inside the silicon model's range."""
+    frames, every temperature inside the silicon model's range.
+
+    Parameters
+    ----------
+    spec : str
+        ``START:STOP:STEP`` [°C].
+
+    Returns
+    -------
+    np.ndarray
+        The temperatures [°C].
+
+    Raises
+    ------
+    ValueError
+        A malformed spec, too many frames, or an end outside the model's range.
+    """
     try:
         start, stop, step = (float(x) for x in spec.split(":"))
     except ValueError:

@@ -15,7 +15,14 @@ from twin.reporting.plots import Display
 
 @dataclass
 class NoiseFloorRatioDisplay(Display):
-    """Table 1 of the benchmark: each model's mean MSE over the noise floor."""
+    """Table 1 of the benchmark: each model's mean MSE over the noise floor.
+
+    Attributes
+    ----------
+    models : list of str
+    ratios : list of float
+        Mean MSE over the noise floor's, per model [1].
+    """
 
     models: list
     ratios: list
@@ -24,6 +31,17 @@ class NoiseFloorRatioDisplay(Display):
 
     @classmethod
     def from_benchmark(cls, result: dict):
+        """The display of a benchmark result.
+
+        Parameters
+        ----------
+        result : dict
+            The benchmark result; its ``table1`` rows (``model``, ``ratio_mean``) are read.
+
+        Returns
+        -------
+        NoiseFloorRatioDisplay
+        """
         rows = result["table1"]
         return cls([r["model"] for r in rows], [r["ratio_mean"] for r in rows])
 
@@ -38,7 +56,15 @@ class NoiseFloorRatioDisplay(Display):
 
 @dataclass
 class ConvergenceDisplay(Display):
-    """Table 2 of the benchmark: the search winner's training MSE after each iteration."""
+    """Table 2 of the benchmark: the search winner's training MSE after each iteration.
+
+    Attributes
+    ----------
+    series : dict
+        Model → (iterations, mean MSE [g²]).
+    noise_floor_mse : float
+        The noise floor's MSE [g²].
+    """
 
     series: dict  # name → (iterations, mean MSE [g²])
     noise_floor_mse: float
@@ -46,6 +72,17 @@ class ConvergenceDisplay(Display):
 
     @classmethod
     def from_benchmark(cls, result: dict):
+        """The display of a benchmark result.
+
+        Parameters
+        ----------
+        result : dict
+            The benchmark result; ``table2`` (MSE [g²] per iteration) and ``noise_floor_mse`` [g²] are read.
+
+        Returns
+        -------
+        ConvergenceDisplay
+        """
         series = {}
         for name, t in result["table2"].items():
             its = sorted(int(k) for k in t["mse_g2_at_iteration"])
@@ -64,7 +101,16 @@ class ConvergenceDisplay(Display):
 
 @dataclass
 class SplitRatioDisplay(Display):
-    """MSE over the noise floor of every model on one benchmark split (log scale)."""
+    """MSE over the noise floor of every model on one benchmark split (log scale).
+
+    Attributes
+    ----------
+    label : str
+        The split, shown as the title.
+    models : list of str
+    ratios : list of float
+        MSE over the noise floor's, per model [1].
+    """
 
     label: str
     models: list
@@ -73,7 +119,19 @@ class SplitRatioDisplay(Display):
 
     @classmethod
     def from_split(cls, label: str, split: dict | None):
-        """``None`` when the benchmark has no such split."""
+        """The display of one split; ``None`` when the benchmark has no such split.
+
+        Parameters
+        ----------
+        label : str
+            The split's title.
+        split : dict or None
+            Model → MSE [g²], with ``noise_floor``.
+
+        Returns
+        -------
+        SplitRatioDisplay or None
+        """
         if not split:
             return None
         names = [k for k in split if k != "noise_floor"]
@@ -81,6 +139,7 @@ class SplitRatioDisplay(Display):
 
     @property
     def title(self) -> str:
+        """The split's label, as the title."""
         return self.label
 
     def _draw(self, ax):
@@ -92,7 +151,18 @@ class SplitRatioDisplay(Display):
 
 
 def benchmark_displays(result: dict) -> list[Display]:
-    """Every display of the benchmark report, in report order."""
+    """Every display of the benchmark report, in report order.
+
+    Parameters
+    ----------
+    result : dict
+        The benchmark result.
+
+    Returns
+    -------
+    list of Display
+        Absent splits skipped.
+    """
     shown = [NoiseFloorRatioDisplay.from_benchmark(result), ConvergenceDisplay.from_benchmark(result),
              SplitRatioDisplay.from_split("extrapolation split (train ≤ 30 °C, test > 30 °C)",
                                           result.get("extrapolation_split")),
@@ -102,7 +172,15 @@ def benchmark_displays(result: dict) -> list[Display]:
 
 @dataclass
 class MainEffectDisplay(Display):
-    """A study's response averaged at each level of one factor."""
+    """A study's response averaged at each level of one factor.
+
+    Attributes
+    ----------
+    factor, response : str
+        Names, with their units, as the axis labels.
+    levels, means : list
+        The factor's levels and the mean response at each [the response's unit].
+    """
 
     factor: str
     response: str
@@ -120,7 +198,15 @@ class MainEffectDisplay(Display):
 
 @dataclass
 class ResponseSurfaceDisplay(Display):
-    """A response over two numeric factors: the runs as points, a triangulated contour behind them."""
+    """A response over two numeric factors: the runs as points, a triangulated contour behind them.
+
+    Attributes
+    ----------
+    x_name, y_name, response : str
+        Names of the two factors and of the response (axis labels).
+    x, y, z : list of float
+        Per run: both factors and the response [their units].
+    """
 
     x_name: str
     y_name: str
@@ -144,7 +230,15 @@ class ResponseSurfaceDisplay(Display):
 
 @dataclass
 class SobolDisplay(Display):
-    """First-order (S1) and total (ST) Sobol indices of one response."""
+    """First-order (S1) and total (ST) Sobol indices of one response.
+
+    Attributes
+    ----------
+    response : str
+    factors : list of str
+    s1, st : list of float
+        First-order and total index per factor [1] (:func:`twin.studies.analysis.sobol_indices`).
+    """
 
     response: str
     factors: list
@@ -165,7 +259,20 @@ class SobolDisplay(Display):
 @dataclass
 class ResidualByMethodDisplay(Display):
     """One axis: the residual of each compensation method against temperature, heating and cooling
-    apart (where a method misses a lag or gradient, its two branches split)."""
+    apart (where a method misses a lag or gradient, its two branches split).
+
+    Attributes
+    ----------
+    axis : str
+    temperature_c : np.ndarray
+        Temperature per sample [°C].
+    residual_mg : dict
+        Method → (n,) residual [mg].
+    heating : np.ndarray
+        Bool per sample.
+    noise_floor_mg : float
+        White-noise σ [mg].
+    """
 
     axis: str
     temperature_c: np.ndarray
@@ -176,6 +283,7 @@ class ResidualByMethodDisplay(Display):
 
     @property
     def title(self) -> str:
+        """The axis and what the markers mean."""
         return f"Axis {self.axis}: residual after each method vs temperature (dots: heating, crosses: cooling)"
 
     def _draw(self, ax):

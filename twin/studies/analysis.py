@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from twin.studies.result import MainEffect, SobolIndex, StudyAnalysis
 from twin.studies.spec import Study
 
 
@@ -19,7 +20,23 @@ def _is_number(v) -> bool:
 
 def table(study: Study, runs: list[dict]) -> tuple[list[str], np.ndarray, list[dict]]:
     """Factor names, the numeric responses per run (NaN for strings and failed runs), and one row
-    per run (factors, responses, status, error) in design order."""
+    per run (factors, responses, status, error) in design order.
+
+    Parameters
+    ----------
+    study : Study
+    runs : list of dict
+        The finished runs (:func:`twin.studies.runner.run_study`), in design order.
+
+    Returns
+    -------
+    names : list of str
+        The factors (dotted scenario paths).
+    Y : ndarray
+        (runs, responses), in each response's unit; NaN for a string or a failed run.
+    rows : list of dict
+        Per run: ``index``, ``replicate``, ``status``, the factors, the responses, ``error``.
+    """
     names = list(study.factors)
     rows = []
     for r in runs:
@@ -33,14 +50,38 @@ def table(study: Study, runs: list[dict]) -> tuple[list[str], np.ndarray, list[d
 
 
 def numeric_responses(study: Study, rows: list[dict]) -> list[str]:
-    """The responses whose value is a number in every successful run."""
+    """The responses whose value is a number in every successful run.
+
+    Parameters
+    ----------
+    study : Study
+    rows : list of dict
+        The table's rows (:func:`table`).
+
+    Returns
+    -------
+    list of str
+        Those responses, in the study's order.
+    """
     ok = [r for r in rows if r["status"] == "ok"]
     return [resp for resp in study.responses if all(_is_number(r[resp]) for r in ok)]
 
 
-def main_effects(study: Study, rows: list[dict]) -> dict:
+def main_effects(study: Study, rows: list[dict]) -> dict[str, dict[str, MainEffect]]:
     """Mean response per factor level (ranged factors: per quartile bin) and the effect size
-    (max − min of those means)."""
+    (max − min of those means).
+
+    Parameters
+    ----------
+    study : Study
+    rows : list of dict
+        The table's rows (:func:`table`).
+
+    Returns
+    -------
+    dict of str to dict of str to MainEffect
+        Factor → numeric response → its means and effect, in the response's unit.
+    """
     out = {}
     ok = [r for r in rows if r["status"] == "ok"]
     responses = numeric_responses(study, rows)
@@ -56,13 +97,25 @@ def main_effects(study: Study, rows: list[dict]) -> dict:
         out[f] = {}
         for resp in responses:
             means = {g: float(np.mean([r[resp] for r in members])) for g, members in groups.items() if members}
-            out[f][resp] = {"means": means, "effect": float(max(means.values()) - min(means.values())) if means else 0.0}
+            out[f][resp] = MainEffect(means, float(max(means.values()) - min(means.values())) if means else 0.0)
     return out
 
 
-def interactions(study: Study, rows: list[dict]) -> dict:
+def interactions(study: Study, rows: list[dict]) -> dict[str, dict[str, float]]:
     """Two-factor interactions: the coefficient of the product term in a linear model with main
-    effects (factors scaled to [−1, 1]), per response."""
+    effects (factors scaled to [−1, 1]), per response.
+
+    Parameters
+    ----------
+    study : Study
+    rows : list of dict
+        The table's rows (:func:`table`).
+
+    Returns
+    -------
+    dict of str to dict of str to float
+        ``"a × b"`` → numeric response → coefficient, in the response's unit.
+    """
     ok = [r for r in rows if r["status"] == "ok"]
     names = [f for f in study.factors if all(isinstance(r[f], (int, float)) for r in ok)]
     if len(names) < 2 or len(ok) < len(names) + 2:
@@ -83,9 +136,38 @@ def interactions(study: Study, rows: list[dict]) -> dict:
     return out
 
 
-def sobol_indices(study: Study, runs: list[dict], n_boot: int = 200, responses: list[str] | None = None) -> dict | None:
+def sobol_indices(study: Study, runs: list[dict], n_boot: int = 200,
+                  responses: list[str] | None = None) -> dict[str, dict[str, SobolIndex]] | None:
     """First-order and total Sobol indices from a Saltelli design (Jansen/Saltelli 2010 estimators)
-    with bootstrap 95 % intervals; None for other designs."""
+    with bootstrap 95 % intervals; None for other designs.
+
+    With f(A), f(B), f(A_B^i) the responses (mean over replicates) at the design's blocks (A_B^i:
+    A with column i from B) and V the variance of f(A) and f(B) pooled: S1_i = mean(f(B) (f(A_B^i) − f(A))) / V and
+    ST_i = mean((f(A) − f(A_B^i))²) / (2 V). The intervals are bootstrap percentile intervals
+    over the N base samples.
+
+    Parameters
+    ----------
+    study : Study
+    runs : list of dict
+        The finished runs.
+    n_boot : int
+        Bootstrap resamples.
+    responses : list of str, optional
+        The responses (default: all of the study's).
+
+    Returns
+    -------
+    dict of str to dict of str to SobolIndex or None
+        Response → factor → indices [1]; None unless the design is a complete Saltelli design.
+
+    References
+    ----------
+    Saltelli, Annoni, Azzini, Campolongo, Ratto & Tarantola (2010), Comput. Phys. Commun. 181,
+    259–270: the design and the first-order estimator; Jansen (1999), Comput. Phys. Commun. 117,
+    35–43: the total-effect estimator. Efron & Tibshirani (1993), *An Introduction to the
+    Bootstrap*: percentile intervals.
+    """
     if study.design.type != "saltelli":
         return None
     d, N = len(study.factors), study.design.points
@@ -114,8 +196,9 @@ def sobol_indices(study: Study, runs: list[dict], n_boot: int = 200, responses: 
 
             s1, st = est(np.arange(N))
             boots = np.array([est(rng.integers(0, N, N)) for _ in range(n_boot)])
-            res[name] = {"S1": float(s1), "S1_ci95": np.percentile(boots[:, 0], [2.5, 97.5]).tolist(),
-                         "ST": float(st), "ST_ci95": np.percentile(boots[:, 1], [2.5, 97.5]).tolist()}
+            s1_ci, st_ci = np.percentile(boots[:, 0], [2.5, 97.5]), np.percentile(boots[:, 1], [2.5, 97.5])
+            res[name] = SobolIndex(float(s1), (float(s1_ci[0]), float(s1_ci[1])),
+                                   float(st), (float(st_ci[0]), float(st_ci[1])))
         out[resp] = res
     return out
 
@@ -124,9 +207,24 @@ def _cell(v) -> str:
     return json.dumps(v) if isinstance(v, str) else f"{v:.6g}" if isinstance(v, float) else str(v)
 
 
-def write_outputs(study: Study, runs: list[dict], out_dir: Path) -> dict:
-    """Table (CSV and HDF5), analysis JSON, plots."""
+def write_outputs(study: Study, runs: list[dict], out_dir: Path) -> StudyAnalysis:
+    """Table (CSV and HDF5), analysis JSON, plots.
+
+    Parameters
+    ----------
+    study : Study
+    runs : list of dict
+        The finished runs, in design order.
+    out_dir : Path
+        The study's output folder.
+
+    Returns
+    -------
+    StudyAnalysis
+        What ``analysis.json`` holds.
+    """
     from twin.io import atomic_hdf5, atomic_write_text
+    from twin.results import to_json
     from twin.studies.plots import write_plots
 
     names, Y, rows = table(study, runs)
@@ -146,9 +244,9 @@ def write_outputs(study: Study, runs: list[dict], out_dir: Path) -> dict:
         for j, resp in enumerate(study.responses):
             f.create_dataset(f"responses/{resp}", data=Y[:, j] if resp in numeric
                              else np.array([str(r[resp]) for r in rows], dtype="S"))
-    analysis = {"runs": len(rows), "failed": sum(r["status"] != "ok" for r in rows),
-                "main_effects": main_effects(study, rows), "interactions": interactions(study, rows),
-                "sobol": sobol_indices(study, runs, responses=numeric)}
-    atomic_write_text(out_dir / "analysis.json", json.dumps(analysis, indent=2) + "\n")
+    analysis = StudyAnalysis(runs=len(rows), failed=sum(r["status"] != "ok" for r in rows),
+                             main_effects=main_effects(study, rows), interactions=interactions(study, rows),
+                             sobol=sobol_indices(study, runs, responses=numeric))
+    atomic_write_text(out_dir / "analysis.json", json.dumps(to_json(analysis), indent=2) + "\n")
     write_plots(study, rows, analysis, out_dir, numeric)
     return analysis

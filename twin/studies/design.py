@@ -16,7 +16,17 @@ if TYPE_CHECKING:
 
 
 def set_path(data: dict, dotted: str, value) -> None:
-    """Set ``a.b.c`` (list indices as numbers) in a nested scenario dict, creating mappings."""
+    """Set ``a.b.c`` (list indices as numbers) in a nested scenario dict, creating mappings.
+
+    Parameters
+    ----------
+    data : dict
+        Scenario data, changed in place.
+    dotted : str
+        The path, e.g. ``device.effects.package_fem.mould_cte_ppm_per_k``.
+    value : object
+        The value set, in the unit of the scenario key it sets.
+    """
     keys = dotted.split(".")
     node = data
     for k in keys[:-1]:
@@ -34,7 +44,20 @@ def set_path(data: dict, dotted: str, value) -> None:
 
 def scenario_error(base: dict, assignments: dict) -> str | None:
     """Why ``base`` with ``assignments`` (dotted path → value, :func:`set_path`) is not a valid
-    scenario (the message after its location), or ``None`` when it is valid."""
+    scenario (the message after its location), or ``None`` when it is valid.
+
+    Parameters
+    ----------
+    base : dict
+        Scenario data (not changed).
+    assignments : dict
+        Dotted path → value, each in its scenario key's unit.
+
+    Returns
+    -------
+    str or None
+        The validation message, or None for a valid scenario.
+    """
     from twin.errors import TwinError
     from twin.model.scenario import parse_scenario
 
@@ -50,7 +73,27 @@ def scenario_error(base: dict, assignments: dict) -> str | None:
 
 
 def design_points(study: Study) -> list[dict]:
-    """Factor settings of every design point (replicates not included)."""
+    """Factor settings of every design point (replicates not included).
+
+    A full factorial crosses the levels (ranged factors: ``design.levels`` evenly spaced values);
+    the other designs draw points in the unit cube with ``scipy.stats.qmc`` (Latin hypercube,
+    scrambled Sobol; Saltelli: the blocks A, B and A_B^i, A with column i from B, so N (d + 2)
+    points) and scale them to each factor's range (log scale when ``log``) or levels.
+
+    Parameters
+    ----------
+    study : Study
+
+    Returns
+    -------
+    list of dict
+        Per point, factor → value (in the unit of the scenario key it sets), in design order.
+
+    References
+    ----------
+    McKay, Beckman & Conover (1979), Technometrics 21, 239–245: the Latin hypercube. Saltelli et
+    al. (2010), Comput. Phys. Commun. 181, 259–270: the A, B, A_B^i design.
+    """
     names = list(study.factors)
     specs = [study.factors[n] for n in names]
     d = len(names)
@@ -85,7 +128,26 @@ def design_points(study: Study) -> list[dict]:
 
 
 def resolve(study: Study, base: dict, point: dict, index: int, replicate: int) -> tuple[str, dict]:
-    """The run's scenario YAML and its key (hash of the resolved scenario and replicate)."""
+    """The run's scenario YAML and its key (hash of the resolved scenario and replicate).
+
+    Parameters
+    ----------
+    study : Study
+    base : dict
+        The base scenario's data (not changed).
+    point : dict
+        Factor → value of the design point.
+    index, replicate : int
+        The point's index in the design and the replicate (0-based); with the study seed they
+        seed the run.
+
+    Returns
+    -------
+    key : str
+        16 hex digits of the SHA-256 of the resolved scenario and the replicate.
+    job : dict
+        ``yaml``, ``index``, ``replicate``, ``point`` and ``seed`` of the run.
+    """
     data = copy.deepcopy(base)
     for path, value in point.items():
         set_path(data, path, value)
@@ -99,7 +161,19 @@ def resolve(study: Study, base: dict, point: dict, index: int, replicate: int) -
 
 
 def plan(study: Study, base: dict) -> list[dict]:
-    """Every run of the study (design points × replicates) in design order."""
+    """Every run of the study (design points × replicates) in design order.
+
+    Parameters
+    ----------
+    study : Study
+    base : dict
+        The base scenario's data.
+
+    Returns
+    -------
+    list of dict
+        Per run, its ``key`` and job (:func:`resolve`).
+    """
     jobs = []
     for i, point in enumerate(design_points(study)):
         for rep in range(study.replicates):

@@ -11,7 +11,8 @@ recorded with its error and the others go on.
 This module gathers the public names of the package's modules: :mod:`~twin.studies.spec` (the
 study file), :mod:`~twin.studies.design` (points and runs), :mod:`~twin.studies.responses` (the
 registry), :mod:`~twin.studies.runner` (execution), :mod:`~twin.studies.analysis` (table and
-analysis) and :mod:`~twin.studies.plots`.
+analysis), :mod:`~twin.studies.result` (the analysis and ``twin doe --json``, typed) and
+:mod:`~twin.studies.plots`.
 """
 
 from twin.studies.analysis import interactions, main_effects, numeric_responses, sobol_indices, table, write_outputs
@@ -26,10 +27,12 @@ from twin.studies.responses import (
     load_plugin,
     register_response,
 )
+from twin.studies.result import DoeResult, MainEffect, SobolIndex, StudyAnalysis
 from twin.studies.runner import evaluate_run, read_runs, run_study
 from twin.studies.spec import DesignSpec, FactorSpec, Study, StudyError, load_study
 
-__all__ = ["RESPONSES", "DesignSpec", "FactorSpec", "Response", "ResponseError", "RunContext", "Study", "StudyError",
+__all__ = ["RESPONSES", "DesignSpec", "DoeResult", "FactorSpec", "MainEffect", "Response", "ResponseError", "RunContext",
+           "SobolIndex", "Study", "StudyAnalysis", "StudyError",
            "design_points", "evaluate_run", "get_response", "interactions", "load_plugin", "load_study",
            "main_effects", "numeric_responses", "plan", "read_runs", "register_response", "resolve", "run_study",
            "set_path", "sobol_indices", "table", "write_outputs", "write_plots"]

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from twin.reporting.study_plots import MainEffectDisplay, ResponseSurfaceDisplay, SobolDisplay
+from twin.studies.result import StudyAnalysis
 from twin.studies.spec import Study
 
 
@@ -31,15 +32,28 @@ def _grid(displays: list[list], size: tuple[float, float], path: Path) -> None:
         plt.close(fig)
 
 
-def write_plots(study: Study, rows: list[dict], analysis: dict, out_dir: Path, responses: list[str] | None = None) -> None:
+def write_plots(study: Study, rows: list[dict], analysis: StudyAnalysis, out_dir: Path,
+                responses: list[str] | None = None) -> None:
     """``main_effects.png``, ``response_surface.png``, ``sobol.png`` (the last two when they apply)
-    of ``responses`` (default: all of the study's)."""
+    of ``responses`` (default: all of the study's).
+
+    Parameters
+    ----------
+    study : Study
+    rows : list of dict
+        The table's rows.
+    analysis : StudyAnalysis
+    out_dir : Path
+        The study's output folder.
+    responses : list of str, optional
+        The numeric responses plotted.
+    """
     responses = study.responses if responses is None else responses
     if not responses:
         return
     ok = [r for r in rows if r["status"] == "ok"]
     names = list(study.factors)
-    main = [[MainEffectDisplay(f, resp, list(m := analysis["main_effects"][f][resp]["means"]), list(m.values()))
+    main = [[MainEffectDisplay(f, resp, list(m := analysis.main_effects[f][resp].means), list(m.values()))
              for f in names] for resp in responses]
     _grid(main, (3.2, 2.6), out_dir / "main_effects.png")
     numeric = [f for f in names if all(isinstance(r[f], (int, float)) for r in ok)]
@@ -48,7 +62,7 @@ def write_plots(study: Study, rows: list[dict], analysis: dict, out_dir: Path, r
         surfaces = [[ResponseSurfaceDisplay(a, b, resp, [r[a] for r in ok], [r[b] for r in ok], [r[resp] for r in ok])
                      for resp in responses]]
         _grid(surfaces, (4.2, 3.6), out_dir / "response_surface.png")
-    if analysis.get("sobol"):
-        sobol = [[SobolDisplay(resp, list(s := analysis["sobol"][resp]), [v["S1"] for v in s.values()],
-                               [v["ST"] for v in s.values()]) for resp in responses]]
+    if analysis.sobol:
+        sobol = [[SobolDisplay(resp, list(s := analysis.sobol[resp]), [v.S1 for v in s.values()],
+                               [v.ST for v in s.values()]) for resp in responses]]
         _grid(sobol, (4, 3.4), out_dir / "sobol.png")

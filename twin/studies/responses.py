@@ -32,6 +32,13 @@ class RunContext:
     (``twin compare``'s result on the blind measurement), ``noise_g`` (the sensor noise, which no
     compensator removes), ``hidden_family`` (the family of the effect the twin lacks, or None),
     ``test_mask`` (the last cycle of every run: the split ``twin benchmark`` uses).
+
+    Parameters
+    ----------
+    loaded : LoadedScenario
+        The run's resolved scenario.
+    job : dict, optional
+        The run's job (:func:`twin.studies.design.resolve`); empty when not given.
     """
 
     def __init__(self, loaded, job: dict | None = None):
@@ -40,32 +47,38 @@ class RunContext:
 
     @property
     def scenario(self):
+        """The run's validated scenario (a ``Scenario``)."""
         return self.loaded.scenario
 
     @property
     def program(self):
+        """The run's compiled chamber program (set-point [°C] over time [s])."""
         return self.loaded.program
 
     @cached_property
     def dataset(self):
+        """The simulated dataset, truth included (columns in their stated units: s, °C, g)."""
         from twin.model.simulate import simulate
 
         return simulate(self.loaded)
 
     @cached_property
     def measurement(self):
+        """The blind measurement: the dataset's logged columns only (time [s], temperature [°C], output [g])."""
         from twin.measurement import from_dataset
 
         return from_dataset(self.dataset)  # blind: the logged columns only
 
     @cached_property
-    def diagnosis(self) -> dict:
-        from twin.diagnosis.compare import compare_measurement
+    def diagnosis(self):
+        """The blind compare of the twin with this run's measurement (a ``CompareResult``)."""
+        from twin.finding.build import compare_measurement
 
         return compare_measurement(self.loaded, self.measurement, [])[1]
 
     @cached_property
     def noise_g(self) -> np.ndarray:
+        """The sensor noise per sample: white, bias instability and quantisation [g]."""
         ds = self.dataset
         return ds["truth/noise_white_g"] + ds["truth/noise_bias_instability_g"] + ds["truth/quantisation_g"]
 
@@ -86,6 +99,7 @@ class RunContext:
 
     @cached_property
     def test_mask(self) -> np.ndarray:
+        """Boolean mask of the test samples: the last cycle of every run [1]."""
         from twin.compensation.splits import last_cycle_test
 
         ds = self.dataset
@@ -94,7 +108,19 @@ class RunContext:
 
 @dataclass(frozen=True)
 class Response:
-    """A registered response: name, what it measures, its unit, and its function."""
+    """A registered response: name, what it measures, its unit, and its function.
+
+    Attributes
+    ----------
+    name : str
+        The response's name (an identifier; the table's column).
+    description : str
+        What it measures.
+    unit : str
+        The unit of its value (empty: dimensionless or a string).
+    function : callable
+        ``function(run: RunContext) -> float | str``.
+    """
 
     name: str
     description: str
@@ -102,7 +128,22 @@ class Response:
     function: Callable[[RunContext], float | str]
 
     def evaluate(self, run: RunContext) -> float | str:
-        """The response of one run: a float, or a string as returned."""
+        """The response of one run: a float, or a string as returned.
+
+        Parameters
+        ----------
+        run : RunContext
+
+        Returns
+        -------
+        float or str
+            In :attr:`unit`.
+
+        Raises
+        ------
+        ResponseError
+            The function returned something else than a number or a string.
+        """
         value = self.function(run)
         if isinstance(value, str):
             return value
@@ -113,6 +154,13 @@ class Response:
                             f"or a string")
 
     def describe(self) -> dict:
+        """The response as plain data.
+
+        Returns
+        -------
+        dict
+            ``name``, ``description``, ``unit`` and the ``module`` of its function.
+        """
         return {"name": self.name, "description": self.description, "unit": self.unit,
                 "module": self.function.__module__}
 
@@ -122,7 +170,28 @@ RESPONSES = Registry("response", ResponseError)
 
 
 def register_response(name: str, *, description: str, unit: str = ""):
-    """Decorator: register ``function(run: RunContext) -> float | str`` as the response ``name``."""
+    """Decorator: register ``function(run: RunContext) -> float | str`` as the response ``name``.
+
+    Parameters
+    ----------
+    name : str
+        An identifier: the response's name in a study's ``responses``.
+    description : str
+        What it measures (not empty).
+    unit : str
+        The unit of its value (empty: dimensionless).
+
+    Returns
+    -------
+    callable
+        The decorator; it returns the function unchanged.
+
+    Raises
+    ------
+    ResponseError
+        A name that is not an identifier, or an empty description; when applied, a name another
+        function registered.
+    """
     if not (isinstance(name, str) and name.isidentifier()):
         raise ResponseError(f"a response name must be an identifier, got {name!r}")
     if not (isinstance(description, str) and description.strip()):
@@ -139,5 +208,11 @@ get_response = RESPONSES.lookup
 load_plugin = RESPONSES.load_plugin
 
 
-# The built-in responses (after the names above exist: standard_responses imports them).
-from twin.studies import standard_responses  # noqa: E402, F401
+def _register_builtins() -> None:
+    from twin.studies.standard_responses import BUILTIN
+
+    for name, description, unit, function in BUILTIN:
+        register_response(name, description=description, unit=unit)(function)
+
+
+_register_builtins()

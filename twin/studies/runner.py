@@ -21,7 +21,25 @@ SCHEDULER_TIMEOUT_S = 5.0  # a dead scheduler: one line after this, not a traceb
 
 def evaluate_run(job: dict, responses: list[str], plugins: list[str] | tuple = ()) -> dict:
     """Simulate one resolved scenario and compute its responses (run in a worker process, which
-    loads the study's ``plugins`` first)."""
+    loads the study's ``plugins`` first).
+
+    Parameters
+    ----------
+    job : dict
+        One run of :func:`twin.studies.design.plan` (``key``, ``yaml``, ``index``, ``replicate``,
+        ``point``, ``seed``).
+    responses : list of str
+        The registered responses to compute.
+    plugins : list of str
+        Response modules to load first (``.py`` paths or module names).
+
+    Returns
+    -------
+    dict
+        The run record: the job's ``key``, ``index``, ``replicate``, ``point``, ``seed``; ``status``
+        (``ok`` or ``error``); ``responses`` (name → value, in each response's unit) or ``error``
+        (one line); ``seconds``, the wall time [s].
+    """
     from twin.model.scenario import parse_scenario
 
     t0 = time.perf_counter()
@@ -101,7 +119,23 @@ def _die_with_parent() -> None:
 def read_runs(path: Path) -> dict[str, dict]:
     """Finished runs by key. A torn last line (a kill during the append) is ignored, as is a torn
     record an older version left mid-file; any other line that is not a run record means the
-    folder holds something else, and is an error."""
+    folder holds something else, and is an error.
+
+    Parameters
+    ----------
+    path : Path
+        ``runs.jsonl`` (missing: no run finished).
+
+    Returns
+    -------
+    dict of str to dict
+        Run key → run record (:func:`evaluate_run`); the last record of a key wins.
+
+    Raises
+    ------
+    StudyError
+        A file that is not UTF-8, or a line that is not a run record.
+    """
     runs = {}
     if path.is_file():
         try:
@@ -136,7 +170,35 @@ def _finished(record: dict | None, responses: list[str]) -> bool:
 
 def run_study(study: Study, base: dict, out_dir: Path, workers: int = 1, executor: str = "local",
               scheduler: str | None = None, progress=None) -> list[dict]:
-    """Run every pending job; return all finished runs in design order."""
+    """Run every pending job; return all finished runs in design order.
+
+    Parameters
+    ----------
+    study : Study
+    base : dict
+        The base scenario's data.
+    out_dir : Path
+        The output folder (``runs.jsonl`` is appended there; created when missing).
+    workers : int
+        Parallel runs (local processes, or a new local Dask cluster's workers).
+    executor : {"local", "dask"}
+        Where the runs are computed.
+    scheduler : str, optional
+        Address of a running Dask scheduler (default: a local cluster).
+    progress : callable, optional
+        ``progress(record | None)``, called once per run (``None``: finished before).
+
+    Returns
+    -------
+    list of dict
+        The finished run records (:func:`evaluate_run`), in design order.
+
+    Raises
+    ------
+    StudyError
+        An output that is a file, or a scheduler that does not answer within
+        ``SCHEDULER_TIMEOUT_S`` [s].
+    """
     if out_dir.exists() and not out_dir.is_dir():
         raise StudyError(f"{out_dir}: the output must be a folder, and this is a file")
     out_dir.mkdir(parents=True, exist_ok=True)

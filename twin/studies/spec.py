@@ -23,6 +23,18 @@ class StudyError(TwinError):
 
 
 class FactorSpec(BaseModel):
+    """One factor of a study: a range or explicit levels of one scenario value.
+
+    Attributes
+    ----------
+    range : list of float, optional
+        [low, high], in the unit of the scenario key the factor sets.
+    levels : list of int, float or str, optional
+        Explicit levels, in that unit.
+    log : bool
+        Sample the range on a log scale (low > 0).
+    """
+
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     range: list[float] | None = Field(None, min_length=2, max_length=2, description="[low, high]")
     levels: list[int | float | str] | None = Field(None, min_length=1, description="explicit levels")
@@ -40,6 +52,18 @@ class FactorSpec(BaseModel):
 
 
 class DesignSpec(BaseModel):
+    """A study's design.
+
+    Attributes
+    ----------
+    type : {"full_factorial", "latin_hypercube", "sobol", "saltelli"}
+        The design.
+    points : int
+        Samples (Latin hypercube, Sobol) or base samples N (Saltelli: N (d + 2) runs for d factors).
+    levels : int
+        Levels per ranged factor in a full factorial.
+    """
+
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     type: Literal["full_factorial", "latin_hypercube", "sobol", "saltelli"] = "full_factorial"
     points: int = Field(8, ge=1, le=MAX_RUNS, description="samples (LHS/Sobol) or base samples N (Saltelli: N(d+2) runs)")
@@ -47,6 +71,32 @@ class DesignSpec(BaseModel):
 
 
 class Study(BaseModel):
+    """A study file (YAML), validated.
+
+    Attributes
+    ----------
+    name, description : str
+        For people.
+    base : str
+        The base scenario YAML, relative to the study file.
+    seed : int
+        Seeds the design and, with each run's index and replicate, the run.
+    factors : dict of str to FactorSpec
+        Dotted scenario path → its range or levels.
+    design : DesignSpec
+    replicates : int
+        Runs per design point.
+    responses : list of str
+        Registered responses, each listed once.
+    max_runs : int
+        Designs with more runs (points × replicates) are refused.
+    logger_rate_hz : float, optional
+        Overrides the base scenario's logger rate [Hz] (faster studies).
+    plugins : list of str
+        Response modules (``.py`` relative to the study, or module names) loaded before the
+        responses are looked up; loading one runs its code.
+    """
+
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     name: str = ""
     description: str = ""
@@ -70,7 +120,17 @@ class Study(BaseModel):
 
 
 def design_size(study: Study) -> int:
-    """The number of design points, computed without building them (a factorial can be huge)."""
+    """The number of design points, computed without building them (a factorial can be huge).
+
+    Parameters
+    ----------
+    study : Study
+
+    Returns
+    -------
+    int
+        Points (replicates not included).
+    """
     d, t = len(study.factors), study.design.type
     if t == "full_factorial":
         return math.prod(len(f.levels) if f.levels is not None else study.design.levels for f in study.factors.values())
@@ -140,7 +200,28 @@ def _resolve_plugin(spec: str, folder: Path) -> str:
 
 def load_study(path: str | Path) -> tuple[Study, dict, Path]:
     """Validate a study file and load its plugins; return it (plugin paths made absolute), the base
-    scenario data, and the study's folder."""
+    scenario data, and the study's folder.
+
+    Parameters
+    ----------
+    path : str or Path
+        The study YAML.
+
+    Returns
+    -------
+    study : Study
+    base : dict
+        The base scenario's data.
+    folder : Path
+        The study file's folder.
+
+    Raises
+    ------
+    ScenarioError
+        One line naming the file, line and key: unknown keys, bad values, unknown responses or
+        factor paths, a plugin that fails, a design over ``max_runs``, a missing or invalid base,
+        a level that gives an invalid scenario.
+    """
     p = Path(path)
     data, lines = load_yaml_mapping(read_text(p, "study file", ScenarioError), str(p), "a study is a YAML mapping")
     try:

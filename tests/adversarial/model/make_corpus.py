@@ -119,7 +119,8 @@ write("yaml_malformed.yaml", None, "run FILE -o OUT.h5 -q", "2 malformed YAML", 
 
 import sys
 
-from twin.effects.base import Contribution, Effect, Parameter, register
+from twin.effects.base import Contribution, Effect, Parameter
+from twin.effects.registry import register
 
 
 @register

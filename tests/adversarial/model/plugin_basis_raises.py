@@ -2,7 +2,8 @@
 
 import sys
 
-from twin.effects.base import Effect, Parameter, register
+from twin.effects.base import Effect, Parameter
+from twin.effects.registry import register
 
 
 @register

@@ -1,6 +1,6 @@
 """Discovery: when the library leaves structure, find a sparse expression that explains it.
 
-A dictionary of candidate terms (:mod:`~twin.diagnosis.discover_features`) is searched by forward
+A dictionary of candidate terms (:mod:`~twin.discovery.features`) is searched by forward
 orthogonal selection (OMP / the FROLS of Billings, *Nonlinear System Identification*, 2013, ch. 3)
 on prewhitened 10-s means, with the AR noise model re-estimated under each alternative as in
 screening. Why our own search and not pysindy's STLSQ/SR3 or sysidentpy's FROLS: the tests here
@@ -20,11 +20,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from twin.diagnosis.calibrate import Calibration
-from twin.diagnosis.discover_features import FeatureSpec, block_feature, block_inputs, dictionary, feature_full
-from twin.diagnosis.linalg import novelty, orthonormal_basis
-from twin.diagnosis.noise import fit_ar
-from twin.diagnosis.problem import Problem, cv_folds
+from twin.estimation.fit import TwinFit
+from twin.discovery.features import FeatureSpec, block_feature, block_inputs, dictionary, feature_full
+from twin.estimation.linalg import novelty, orthonormal_basis
+from twin.estimation.noise import fit_ar
+from twin.estimation.problem import Problem, cv_folds
 from twin.diagnosis.screen import CandidateResult, CandidateTest, gls_test
 
 SEARCH_FOLDS = (0, 1, 2)
@@ -34,8 +34,38 @@ AT_FLOOR = 1.02  # residual within 2 % of the white-noise floor: nothing to disc
 PREFER_LIBRARY_MARGIN = 10.0  # a library effect within this ΔBIC of the discovered term explains it as well
 
 
+@dataclass(frozen=True)
+class RunnerUp:
+    """A feature the first discovered term beat, with its ΔBIC.
+
+    Attributes
+    ----------
+    feature : str
+        The feature's printed form.
+    delta_bic : float
+        Its ΔBIC on the search blocks [1].
+    """
+
+    feature: str
+    delta_bic: float
+
+
 @dataclass
 class Term:
+    """One discovered term.
+
+    Attributes
+    ----------
+    spec : FeatureSpec
+        The feature.
+    coef_mg, ci95_mg : float
+        Coefficient and the half-width of its 95 % interval [mg per unit of the feature].
+    delta_bic : float
+        ΔBIC of its step of the search, on the search blocks [1].
+    p_adjusted : float
+        F-test p-value times the features tried at every step [1].
+    """
+
     spec: FeatureSpec
     coef_mg: float  # mg per unit of the feature
     ci95_mg: float
@@ -45,6 +75,33 @@ class Term:
 
 @dataclass
 class Discovery:
+    """What the dictionary search found outside the library (docs/diagnosis.md §1 step 7).
+
+    Attributes
+    ----------
+    proposed : bool
+        A term is proposed.
+    reason : str
+        Why (or why nothing is proposed).
+    terms : list of Term
+    features_tried : int
+        Features in the dictionary (the Bonferroni factor of each step).
+    heldout_gain : float
+        Relative fall of the error on blocks the search did not see [1].
+    delta_bic : float
+        Sum of the terms' ΔBIC [1].
+    rms_before_g, rms_predicted_g : float
+        Residual RMS before, and predicted with the terms [g].
+    beaten : list of RunnerUp
+        Runner-up features of the first step.
+    preferred_library : str or None
+        A library effect that explains the residual as well.
+    average_s : float
+        Block length of the search [s].
+    contribution_g : np.ndarray, optional
+        The discovered term at the sample times [g].
+    """
+
     proposed: bool
     reason: str
     terms: list[Term] = field(default_factory=list)
@@ -53,25 +110,24 @@ class Discovery:
     delta_bic: float = 0.0
     rms_before_g: float = float("nan")
     rms_predicted_g: float = float("nan")
-    beaten: list[dict] = field(default_factory=list)  # runner-up features of the first step
+    beaten: list[RunnerUp] = field(default_factory=list)  # runner-up features of the first step
     preferred_library: str | None = None
     average_s: float = 10.0
     contribution_g: np.ndarray | None = None  # the discovered term at the sample times
 
     def equation(self) -> str:
+        """The proposed bias term, e.g. ``bias = +0.31 mg/°C/min · dT/dt``.
+
+        Returns
+        -------
+        str
+            ``""`` without terms.
+        """
         if not self.terms:
             return ""
         parts = [f"{t.coef_mg:+.4g} mg/{t.spec.unit or '1'} · {t.spec.label}".replace("mg/1 ·", "mg ·")
                  for t in self.terms]
         return "bias = " + " ".join(parts)
-
-    def json(self) -> dict:
-        return {"proposed": self.proposed, "reason": self.reason, "equation": self.equation(),
-                "terms": [{"feature": t.spec.to_dict(), "coefficient_mg": t.coef_mg, "ci95_half_width_mg": t.ci95_mg,
-                           "delta_bic": t.delta_bic, "p_adjusted": t.p_adjusted} for t in self.terms],
-                "features_tried": self.features_tried, "heldout_gain": self.heldout_gain, "delta_bic": self.delta_bic,
-                "rms_before_g": self.rms_before_g, "rms_predicted_g": self.rms_predicted_g, "beaten": self.beaten,
-                "preferred_library": self.preferred_library, "average_s": self.average_s}
 
 
 def _segments(mask: np.ndarray, run: np.ndarray) -> np.ndarray:
@@ -81,26 +137,40 @@ def _segments(mask: np.ndarray, run: np.ndarray) -> np.ndarray:
     return np.cumsum(brk) - 1
 
 
-def base_design(problem: Problem, cal: Calibration, selected: list[CandidateResult]):
-    """The calibrated model's columns plus the named library effects (full rate) and the target."""
+def base_design(problem: Problem, cal: TwinFit, selected: list[CandidateResult]):
+    """The calibrated model's columns plus the named library effects (full rate) and the target.
+
+    Parameters
+    ----------
+    problem, cal : Problem, TwinFit
+    selected : list of CandidateResult
+        Library effects named; their full-rate columns join the design.
+
+    Returns
+    -------
+    X_full : np.ndarray
+        Design, n × k.
+    y : np.ndarray
+        Output minus applied minus the fixed part of the model [g].
+    """
     extra = [c.columns_full for c in selected if c.columns_full is not None]
     X_full = np.column_stack([cal.X_full, *extra]) if extra else cal.X_full
     return X_full, problem.y - cal.fixed_full
 
 
-def discover(problem: Problem, cal: Calibration, selected: list[CandidateResult], candidates: list[CandidateResult],
+def discover(problem: Problem, cal: TwinFit, selected: list[CandidateResult], candidates: list[CandidateResult],
              noise_floor_g: float) -> Discovery:
     """Search the dictionary for a term the library lacks; see the module docstring.
 
     Parameters
     ----------
-    problem, cal : Problem, Calibration
+    problem, cal : Problem, TwinFit
     selected : list of CandidateResult
         Library effects the diagnosis named (part of the base model here).
     candidates : list of CandidateResult
         The screening, to prefer a library effect that explains the residual as well.
     noise_floor_g : float
-        White-noise floor from the data.
+        White-noise floor from the data [g].
 
     Returns
     -------
@@ -153,7 +223,7 @@ def discover(problem: Problem, cal: Calibration, selected: list[CandidateResult]
         t = results[best]
         p_adj = min(1.0, t.p_value * K * (step + 1))  # every feature tried, at every step
         if step == 0:
-            out.beaten = [{"feature": specs[j].label, "delta_bic": results[j].delta_bic}
+            out.beaten = [RunnerUp(specs[j].label, results[j].delta_bic)
                           for j in sorted(results, key=lambda j: -results[j].delta_bic)[1:5]]
         if not (p_adj < cfg.alpha and t.delta_bic > cfg.min_delta_bic):
             break

@@ -54,9 +54,26 @@ LINEAR_CASES = {"hysteresis", "creep_2term", "thermal_gradient", "scale_factor",
 def detectable_ratio(m: Measurement, twin: LoadedScenario, hidden_g: np.ndarray, noise_g: np.ndarray,
                      average_s: float = 10.0) -> float:
     """RMS of the hidden term after projecting out what the twin absorbs (offsets, its free
-    amplitudes), over the σ of the noise, both on ``average_s`` means."""
-    from twin.diagnosis.linalg import orthonormal_basis
-    from twin.diagnosis.problem import DiagnosisConfig, Problem, design_matrix
+    amplitudes), over the σ of the noise, both on ``average_s`` means (docs/diagnosis.md §3.1 item 7).
+
+    Parameters
+    ----------
+    m : Measurement
+        The dataset.
+    twin : LoadedScenario
+        The twin's scenario (what it absorbs).
+    hidden_g, noise_g : np.ndarray
+        The hidden term and the noise in the output, per sample [g].
+    average_s : float
+        Block length of the means [s].
+
+    Returns
+    -------
+    float
+        Detectable RMS over σ of the noise [1].
+    """
+    from twin.estimation.linalg import orthonormal_basis
+    from twin.estimation.problem import DiagnosisConfig, Problem, design_matrix
 
     p = Problem(m, DiagnosisConfig(average_s=average_s))
     X, _, _, _ = design_matrix(p, twin.twin_composition())
@@ -83,6 +100,30 @@ _PROGRAM = {
 
 @dataclass
 class Case:
+    """One dataset with a hidden effect and its truth (docs/diagnosis.md §3.1).
+
+    Attributes
+    ----------
+    kind : str
+        A key of :data:`CASES`.
+    seed : int
+    level : str
+        ``clear``, ``marginal`` or ``sub`` (:data:`LEVEL_BANDS`).
+    family : str or None
+        What the diagnosis should name.
+    truth : dict
+        Drawn parameters, in each one's unit (kept from the diagnosis).
+    measurement : Measurement
+    noise_only_rms_g : float
+        RMS of the noise alone [g].
+    twin : LoadedScenario
+        The twin's scenario: never holds the hidden effect.
+    hidden_g : np.ndarray, optional
+        The hidden term in the output [g] (None where it acts through temperature).
+    noise_g : np.ndarray, optional
+        The noise in the output [g].
+    """
+
     kind: str
     seed: int
     level: str
@@ -96,9 +137,21 @@ class Case:
 
     @property
     def file_stem(self) -> str:
+        """A neutral file name stem (a hash of kind, seed and level: the truth stays in memory)."""
         return "case_" + hashlib.sha1(f"{self.kind}/{self.seed}/{self.level}".encode()).hexdigest()[:10]
 
     def write_csv(self, directory: Path) -> Path:
+        """Write the measurement as a canonical CSV named :attr:`file_stem`.
+
+        Parameters
+        ----------
+        directory : Path
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         m = self.measurement
         return write_canonical_csv(Path(directory) / f"{self.file_stem}.csv", m.time_s, m.temperature_c, m.output_g,
                                    m.applied_g, m.run_index, m.power_on)
@@ -109,7 +162,28 @@ def _u(rng, lo, hi):
 
 
 def draw_case(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) -> Case:
-    """Draw one dataset of ``kind`` (see :data:`CASES`) at ``level`` ('clear' or 'marginal')."""
+    """Draw one dataset of ``kind`` (see :data:`CASES`) at ``level`` ('clear' or 'marginal').
+
+    Parameters
+    ----------
+    kind : str
+        A key of :data:`CASES`.
+    seed : int
+        Seed of the draw and of the simulation.
+    level : str
+        ``clear``, ``marginal`` or ``sub`` (:data:`LEVEL_BANDS`).
+    rate_hz : float
+        Logger rate [Hz].
+
+    Returns
+    -------
+    Case
+
+    Raises
+    ------
+    ValueError
+        An unknown kind or level.
+    """
     if kind not in CASES:
         raise ValueError(f"unknown case {kind!r}; cases: {', '.join(CASES)}")
     if level not in ("clear", "marginal", "sub"):

@@ -17,7 +17,19 @@ from twin.arrays import run_slices
 
 @dataclass
 class BlockAverager:
-    """Means over blocks of ``k`` samples inside each run (a partial last block is kept)."""
+    """Means over blocks of ``k`` samples inside each run (a partial last block is kept).
+
+    Calling it with an array (n,) or (n, m) returns the block means, (blocks,) or (blocks, m).
+
+    Attributes
+    ----------
+    starts : np.ndarray
+        First sample of each block.
+    lengths : np.ndarray
+        Samples in each block.
+    run_of_block : np.ndarray
+        Run of each block.
+    """
 
     starts: np.ndarray  # first sample of each block
     lengths: np.ndarray
@@ -25,6 +37,19 @@ class BlockAverager:
 
     @classmethod
     def build(cls, run_index: np.ndarray, k: int) -> BlockAverager:
+        """Blocks of ``k`` samples, restarting at each run.
+
+        Parameters
+        ----------
+        run_index : np.ndarray
+            Run of each sample.
+        k : int
+            Samples per block (at least 1).
+
+        Returns
+        -------
+        BlockAverager
+        """
         k = max(1, int(k))
         run_index = np.asarray(run_index)
         starts = np.concatenate([np.arange(s.start, s.stop, k) for s in run_slices(run_index)])
@@ -41,8 +66,15 @@ class BlockAverager:
 class ARModel:
     """x[t] = Σ a_i x[t−i] + e[t], e white with variance ``sigma2``.
 
-    ``partial`` holds the Levinson–Durbin predictors of orders 0..p−1 with their error variances,
-    used for the first samples of each run.
+    Attributes
+    ----------
+    coefficients : np.ndarray
+        a_1 … a_p [1].
+    sigma2 : float
+        Innovation variance [unit of x squared].
+    partial : list of (np.ndarray, float)
+        The Levinson–Durbin predictors of orders 0..p−1 with their error variances, used for the
+        first samples of each run.
     """
 
     coefficients: np.ndarray
@@ -51,6 +83,7 @@ class ARModel:
 
     @property
     def order(self) -> int:
+        """The AR order p [1]."""
         return int(self.coefficients.size)
 
     def prewhiten(self, x: np.ndarray, run_index: np.ndarray) -> np.ndarray:
@@ -61,6 +94,23 @@ class ARModel:
         √(σ²_p / σ²_t), so all outputs share one variance. Zero-initialised filtering would leave
         those samples with the full process variance, and a regressor concentrated at run starts
         (a power-on transient) would look significant in pure noise.
+
+        Parameters
+        ----------
+        x : np.ndarray
+            Series (n,) or columns (n, m) [any unit].
+        run_index : np.ndarray
+            Run of each row; whitening restarts at each run.
+
+        Returns
+        -------
+        np.ndarray
+            Innovations, shape of ``x`` [unit of x].
+
+        References
+        ----------
+        Brockwell & Davis, *Time Series: Theory and Methods*, §5.2 (recursive best linear
+        predictors); docs/diagnosis.md §1 step 3.
         """
         b = np.r_[1.0, -self.coefficients]
         x = np.asarray(x, float)
@@ -95,6 +145,26 @@ def fit_ar(x: np.ndarray, run_index: np.ndarray, max_order: int = 20) -> ARModel
 
     Levinson–Durbin gives the coefficients and innovation variance of every order in one pass
     (Brockwell & Davis, *Time Series: Theory and Methods*, §5.2).
+
+    Parameters
+    ----------
+    x : np.ndarray
+        The residual [any unit].
+    run_index : np.ndarray
+        Run of each sample; the autocovariance is pooled over runs, each demeaned.
+    max_order : int
+        Largest order tried (at most n / 10).
+
+    Returns
+    -------
+    ARModel
+        The order with the lowest BIC (order 0 when nothing beats white noise).
+
+    References
+    ----------
+    Yule–Walker equations (Yule 1927, *Phil. Trans. R. Soc. A* 226:267; Walker 1931, *Proc. R. Soc. A*
+    131:518), solved by Levinson–Durbin (Brockwell & Davis §5.2); BIC: Schwarz, G. (1978), Estimating
+    the dimension of a model, *Ann. Stat.* 6(2):461–464; docs/diagnosis.md §1 step 3.
     """
     x = np.asarray(x, float)
     n = x.size
@@ -129,7 +199,22 @@ def walk_filter(x: np.ndarray, run_index: np.ndarray, theta: float) -> np.ndarra
     """(1 − B)/(1 − θB) per run: whitens white noise plus a random walk (the local-level model,
     an ARIMA(0,1,1); Harvey, *Forecasting, Structural Time Series Models and the Kalman Filter*,
     §2.3.2). θ = 1 is the identity; a unit lower-triangular map, so it leaves the likelihood's
-    determinant alone and models with different θ compare by their residuals."""
+    determinant alone and models with different θ compare by their residuals.
+
+    Parameters
+    ----------
+    x : np.ndarray
+        Series (n,) or columns (n, m) [any unit].
+    run_index : np.ndarray
+        Run of each row; the filter restarts at each run.
+    theta : float
+        MA parameter θ [1].
+
+    Returns
+    -------
+    np.ndarray
+        The filtered series [unit of x].
+    """
     x = np.asarray(x, float)
     if theta >= 1.0:
         return x
@@ -141,12 +226,34 @@ def walk_filter(x: np.ndarray, run_index: np.ndarray, theta: float) -> np.ndarra
 
 @dataclass
 class WalkARModel:
-    """Noise = random walk + AR(p): the walk filter with ``theta`` (1: no walk), then ``ar``."""
+    """Noise = random walk + AR(p): the walk filter with ``theta`` (1: no walk), then ``ar``.
+
+    Attributes
+    ----------
+    theta : float
+        Parameter of :func:`walk_filter` [1].
+    ar : ARModel
+        AR model of the walk-filtered series.
+    """
 
     theta: float
     ar: ARModel
 
     def prewhiten(self, x: np.ndarray, run_index: np.ndarray) -> np.ndarray:
+        """:func:`walk_filter`, then :meth:`ARModel.prewhiten`, run by run.
+
+        Parameters
+        ----------
+        x : np.ndarray
+            Series (n,) or columns (n, m) [any unit].
+        run_index : np.ndarray
+            Run of each row.
+
+        Returns
+        -------
+        np.ndarray
+            Innovations [unit of x].
+        """
         return self.ar.prewhiten(walk_filter(x, run_index, self.theta), run_index)
 
 
@@ -157,6 +264,22 @@ def fit_walk_ar(A: np.ndarray, y: np.ndarray, run_index: np.ndarray, max_order: 
     The restricted likelihood counts the regressors' own log det(AᵀΣ⁻¹A) (Harville, *JASA* 72,
     1977, §4), so a trend in ``A`` does not hide the walk that looks like it: a plain likelihood of
     the residual after fitting the trend underestimates the walk exactly when it drifts one way.
+
+    Parameters
+    ----------
+    A : np.ndarray
+        Regressors (n × k).
+    y : np.ndarray
+        Target (n,) [any unit].
+    run_index : np.ndarray
+        Run of each row.
+    max_order : int
+        Largest AR order.
+
+    Returns
+    -------
+    WalkARModel
+        θ from :data:`WALK_THETAS` and the AR model of the walk-filtered residual.
     """
     A = np.asarray(A, float).reshape(len(y), -1)
     r_ols = y - A @ np.linalg.lstsq(A, y, rcond=None)[0]
@@ -185,6 +308,18 @@ def white_noise_sigma_from_differences(r: np.ndarray, run_index: np.ndarray) -> 
     Slow structure barely changes between neighbouring samples, so this is the sample-rate noise
     floor of the data (white + quantisation), robust to the drift still in the residual. Differences
     beyond 8 robust σ (spikes, steps) are trimmed; a plain MAD would be biased by quantised values.
+
+    Parameters
+    ----------
+    r : np.ndarray
+        Residual [g].
+    run_index : np.ndarray
+        Run of each sample; differences across runs are dropped.
+
+    Returns
+    -------
+    float
+        White-noise σ [g] (docs/diagnosis.md §2k).
     """
     d = np.diff(np.asarray(r, float))
     return white_sigma_of_differences(d[np.diff(np.asarray(run_index)) == 0])
@@ -192,7 +327,18 @@ def white_noise_sigma_from_differences(r: np.ndarray, run_index: np.ndarray) -> 
 
 def white_sigma_of_differences(d: np.ndarray) -> float:
     """√(mean(d²)/2) of first differences ``d`` inside runs, beyond 8 robust σ trimmed (see
-    :func:`white_noise_sigma_from_differences`)."""
+    :func:`white_noise_sigma_from_differences`).
+
+    Parameters
+    ----------
+    d : np.ndarray
+        First differences inside runs [g].
+
+    Returns
+    -------
+    float
+        White-noise σ [g]; 0 for no differences.
+    """
     if d.size == 0:
         return 0.0
     scale = np.percentile(np.abs(d), 75) / 0.6745 or np.std(d)
@@ -200,10 +346,51 @@ def white_sigma_of_differences(d: np.ndarray) -> float:
     return float(np.sqrt(np.mean(d * d) / 2.0))
 
 
-def allan_deviation(x: np.ndarray, rate_hz: float, n_taus: int = 30):
-    """Overlapping Allan deviation (IEEE 952 / NIST SP 1065) on a log grid of averaging times."""
-    from sim.sensor import allan_deviation as _adev
+def white_sigma_in_place(d: np.ndarray) -> float:
+    """:func:`white_sigma_of_differences` of ``d``, overwriting ``d`` with ``|d|``: the same estimator
+    and the same number (neither the trim nor the squares see the sign; tests/test_long_logs.py
+    checks equality) with one full-length temporary instead of four, which set the peak memory of a
+    week-long log.
 
-    n = len(x)
-    taus = np.unique(np.logspace(0, np.log10(max(2, n // 8)), n_taus).astype(int)) / rate_hz
-    return _adev(x, rate_hz, taus)
+    Parameters
+    ----------
+    d : np.ndarray
+        First differences inside runs [g]; overwritten.
+
+    Returns
+    -------
+    float
+        White-noise σ [g]; 0 for no differences.
+    """
+    if d.size == 0:
+        return 0.0
+    magnitude = np.abs(d)
+    scale = np.percentile(magnitude, 75, overwrite_input=True) / 0.6745  # partitions the temporary
+    del magnitude
+    if not scale > 0:  # mostly zero differences: the fallback scale needs the signed values
+        return white_sigma_of_differences(d)
+    np.abs(d, out=d)
+    kept = d[d <= 8 * scale]
+    np.square(kept, out=kept)
+    return float(np.sqrt(np.mean(kept) / 2.0))
+
+
+def allan_taus_s(n: int, rate_hz: float, n_taus: int = 30) -> np.ndarray:
+    """Averaging times for an Allan deviation (:func:`sim.sensor.allan_deviation`, the one
+    implementation) of ``n`` samples: log-spaced from 1 sample up to n / 8, duplicates merged.
+
+    Parameters
+    ----------
+    n : int
+        Samples of the signal.
+    rate_hz : float
+        Sample rate [Hz].
+    n_taus : int
+        Points of the log grid before duplicates are merged.
+
+    Returns
+    -------
+    np.ndarray
+        Averaging times [s].
+    """
+    return np.unique(np.logspace(0, np.log10(max(2, n // 8)), n_taus).astype(int)) / rate_hz

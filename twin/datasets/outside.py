@@ -1,7 +1,7 @@
 """Datasets with an effect outside the library, drawn by a seeded generator, for the discovery
 acceptance tests and benchmark; and null data with coloured noise.
 
-Each case starts from the ``none`` case of :mod:`twin.diagnosis.hidden` (the twin's own effects, the
+Each case starts from the ``none`` case of :mod:`twin.datasets.hidden` (the twin's own effects, the
 full noise stack, two runs at ±1 g, 1 Hz) and adds one term whose form is not among the library's:
 
 - ``rate_squared``: a bias in (dT/dt)² (even in the rate: heating and cooling push the same way);
@@ -16,7 +16,7 @@ full noise stack, two runs at ±1 g, 1 Hz) and adds one term whose form is not a
 
 The generating forms are computed with the generator's own smoothing (a 30-s Gaussian on the
 logged temperature), not with the dictionary's code. The clear level is set as in
-:mod:`twin.diagnosis.hidden`: the hidden term's detectable RMS over σ of the noise on 10-s means,
+:mod:`twin.datasets.hidden`: the hidden term's detectable RMS over σ of the noise on 10-s means,
 drawn in 1.5–3.
 """
 
@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
-from twin.arrays import run_slices
-from twin.diagnosis.hidden import LEVEL_BANDS, Case, detectable_ratio, draw_case
+from twin.arrays import run_slices, temperature_rate_c_per_s
+from twin.datasets.hidden import LEVEL_BANDS, Case, detectable_ratio, draw_case
 
 #: case → the dictionary feature kinds that generate it (empty: nothing to find)
 OUTSIDE_CASES = {"rate_squared": ("rate2",), "threshold_step": ("step",), "temp_rate": ("temp_rate",),
@@ -37,6 +37,21 @@ OUTSIDE_CASES = {"rate_squared": ("rate2",), "threshold_step": ("step",), "temp_
 
 @dataclass
 class OutsideCase:
+    """One dataset with an effect outside the library, and its truth.
+
+    Attributes
+    ----------
+    kind : str
+        A key of :data:`OUTSIDE_CASES`.
+    seed : int
+    case : Case
+        Measurement, twin, noise-only RMS [g]; ``hidden_g`` is the added term [g].
+    generating_kinds : tuple of str
+        The dictionary feature kinds that generate it (empty: nothing to find).
+    truth : dict
+        Drawn parameters, in each one's unit (``coefficient_mg`` [mg per unit of the form] …).
+    """
+
     kind: str
     seed: int
     case: Case  # measurement, twin, noise-only RMS; ``hidden_g`` is the added term
@@ -51,14 +66,6 @@ def _smooth(x: np.ndarray, run_index: np.ndarray, sigma_samples: float) -> np.nd
     return out
 
 
-def _rate_c_per_min(t: np.ndarray, temp: np.ndarray, run_index: np.ndarray) -> np.ndarray:
-    out = np.zeros_like(temp)
-    for s in run_slices(run_index):
-        if temp[s].size > 1:
-            out[s] = np.gradient(temp[s], t[s]) * 60.0
-    return out
-
-
 def _pink(rng: np.random.Generator, n: int) -> np.ndarray:
     """Unit-variance 1/f noise: white noise shaped by 1/√f in the frequency domain."""
     f = np.fft.rfftfreq(n)
@@ -70,7 +77,27 @@ def _pink(rng: np.random.Generator, n: int) -> np.ndarray:
 
 def draw_outside(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.0) -> OutsideCase:
     """Draw one dataset of ``kind`` (see :data:`OUTSIDE_CASES`) at ``level`` (a band of
-    :data:`~twin.diagnosis.hidden.LEVEL_BANDS`), logged at ``rate_hz``."""
+    :data:`~twin.datasets.hidden.LEVEL_BANDS`), logged at ``rate_hz``.
+
+    Parameters
+    ----------
+    kind : str
+        A key of :data:`OUTSIDE_CASES`.
+    seed : int
+    level : str
+        A key of :data:`~twin.datasets.hidden.LEVEL_BANDS`.
+    rate_hz : float
+        Logger rate [Hz].
+
+    Returns
+    -------
+    OutsideCase
+
+    Raises
+    ------
+    ValueError
+        An unknown kind.
+    """
     if kind not in OUTSIDE_CASES:
         raise ValueError(f"unknown case {kind!r}; cases: {', '.join(OUTSIDE_CASES)}")
     base = draw_case("none", seed, "clear", rate_hz=rate_hz)
@@ -79,7 +106,7 @@ def draw_outside(kind: str, seed: int, level: str = "clear", rate_hz: float = 1.
     t, run = m.time_s, m.run_index
     rate_hz = m.sample_rate_hz
     temp = _smooth(m.temperature_c, run, 30.0 * rate_hz)
-    rate = _rate_c_per_min(t, temp, run)
+    rate = temperature_rate_c_per_s(t, temp, run) * 60.0  # °C/min, of the smoothed temperature
     truth: dict = {}
     if kind == "null_coloured":
         # bias random walk (0.004 mg/√s: ≈0.5 mg over a 5-h run) and 1/f-like noise (0.1 mg RMS)

@@ -15,84 +15,36 @@ y and y², so any model on the means gives the exact full-rate sum of squares in
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, fields
 
 import numpy as np
 
 from twin.diagnosis.diagnose import Diagnosis
-from twin.diagnosis.language import finding_text
-from twin.diagnosis.noise import BlockAverager, white_sigma_of_differences
-from twin.diagnosis.problem import DiagnosisConfig, Problem
+from twin.estimation.noise import BlockAverager, white_sigma_in_place
+from twin.estimation.decimate import (
+    MAX_MODEL_ROWS, block_aligned_factor, decimate, decimation_factor, time_since_power_on_s,
+)
+from twin.estimation.problem import DiagnosisConfig, Problem
 from twin.diagnosis.segments import residual_segments
 from twin.measurement import Measurement
 
-MODEL_RATE_HZ = 10.0  # 100 means per 10-s screening block
-MAX_MODEL_ROWS = 2_000_000  # a week at 100 Hz is diagnosed on 40-sample means (1.5 M rows)
 CHUNK_BLOCKS = 1 << 17  # blocks per chunk of the full-rate pass (≈ 1.3 M samples at k = 10)
-
-
-def decimation_factor(rate_hz: float, model_rate_hz: float = MODEL_RATE_HZ) -> int:
-    """Samples per mean: 1 (no decimation) up to twice the model rate, so 10-20 Hz logs (and
-    every recorded result) are diagnosed exactly as before; ``TDE_TWIN_FULL_RATE=1`` forces 1."""
-    if os.environ.get("TDE_TWIN_FULL_RATE") or rate_hz <= 2 * model_rate_hz:
-        return 1
-    return int(rate_hz / model_rate_hz + 1e-6)  # a rate of 99.999999998 Hz from rounded times is 100
-
-
-def block_aligned_factor(k: int, block: int) -> int:
-    """The smallest divisor of the screening block (samples) that is at least ``k``: means then
-    tile every 10-s block exactly; never coarser than the block itself."""
-    block = max(1, block)
-    return next((d for d in range(max(1, k), block + 1) if block % d == 0), block)
-
-
-def decimate(m: Measurement, k: int) -> tuple[Measurement, BlockAverager]:
-    """Means of ``k`` consecutive samples inside each run (a partial last block is kept).
-
-    Time, temperature, output and applied acceleration are averaged (the model is linear in the
-    output and applied g); a block holding a power-on flag is flagged.
-
-    Parameters
-    ----------
-    m : Measurement
-    k : int
-
-    Returns
-    -------
-    Measurement
-        One row per block.
-    BlockAverager
-        The blocks, for the full-rate figures.
-    """
-    blocks = BlockAverager.build(m.run_index, k)
-    flags = np.asarray(m.power_on, bool)
-    power = np.logical_or.reduceat(flags, blocks.starts)
-    applied = blocks(m.applied_g) if m.applied_known else np.full(blocks.starts.size, np.nan)
-    dec = Measurement(blocks(m.time_s), blocks(m.temperature_c), blocks(m.output_g), applied,
-                      np.asarray(m.run_index)[blocks.starts], power, m.applied_known, list(m.sources),
-                      m.bad_rows_skipped, list(m.notes))
-    return dec, blocks
-
-
-def time_since_power_on_s(m: Measurement, blocks: BlockAverager, dec: Measurement) -> np.ndarray:
-    """Each block's mean time since the latest power-on *sample* of the full-rate log.
-
-    The block's own flag would date the power-on at the block's centre, k/2 samples late: a
-    warm-up of τ = 10 s would then be off by 0.5 % at 100 Hz.
-    """
-    flags = np.asarray(m.power_on, bool).copy()
-    flags[blocks.starts[np.r_[True, np.diff(dec.run_index) != 0]]] = True  # each run starts powered on
-    on = np.flatnonzero(flags)
-    last = np.r_[blocks.starts[1:], len(m)] - 1
-    latest = on[np.searchsorted(on, last, side="right") - 1]
-    return np.clip(dec.time_s - m.time_s[latest], 0.0, None)
 
 
 @dataclass
 class BlockSums:
     """Full-rate y = output − applied summarised per block: Σy, Σy², the count, and the
-    white-noise floor of the residual against the calibrated model held over each block."""
+    white-noise floor of the residual against the calibrated model held over each block.
+
+    Attributes
+    ----------
+    s1, s2 : numpy.ndarray
+        Per block Σy [g] and Σy² [g²].
+    lengths : numpy.ndarray
+        Samples per block (float).
+    noise_floor_g : float
+        White-noise σ of the full-rate residual [g].
+    """
 
     s1: np.ndarray
     s2: np.ndarray
@@ -100,10 +52,33 @@ class BlockSums:
     noise_floor_g: float
 
     def sumsq(self, model: np.ndarray) -> np.ndarray:
-        """Per-block Σ (y − model_b)² over the full-rate samples."""
+        """Per-block Σ (y − model_b)² = S2_b − 2 m_b S1_b + L_b m_b² over the full-rate samples.
+
+        Parameters
+        ----------
+        model : numpy.ndarray
+            The model held over each block [g].
+
+        Returns
+        -------
+        numpy.ndarray
+            Sum of squares per block [g²], clipped at 0.
+        """
         return np.clip(self.s2 - 2 * model * self.s1 + self.lengths * model * model, 0.0, None)
 
     def rms(self, model: np.ndarray) -> float:
+        """RMS of the full-rate samples about ``model`` held over each block.
+
+        Parameters
+        ----------
+        model : numpy.ndarray
+            The model per block [g].
+
+        Returns
+        -------
+        float
+            Residual RMS [g].
+        """
         return float(np.sqrt(self.sumsq(model).sum() / self.lengths.sum()))
 
 
@@ -117,9 +92,14 @@ def block_sums(m: Measurement, blocks: BlockAverager, applied_dec: np.ndarray, m
     blocks : BlockAverager
         Its blocks.
     applied_dec : np.ndarray
-        The decimated problem's applied acceleration (per-run constants when not logged).
+        The decimated problem's applied acceleration [g] (per-run constants when not logged).
     model : np.ndarray
-        The calibrated model of y on the blocks (``problem.y − residual``).
+        The calibrated model of y on the blocks (``problem.y − residual``) [g].
+
+    Returns
+    -------
+    BlockSums
+        Block sums of y and y² and the full-rate white-noise floor [g].
     """
     nb = blocks.starts.size
     s1, s2 = np.empty(nb), np.empty(nb)
@@ -148,33 +128,46 @@ def block_sums(m: Measurement, blocks: BlockAverager, applied_dec: np.ndarray, m
     return BlockSums(s1, s2, blocks.lengths.astype(float), floor)
 
 
-def white_sigma_in_place(d: np.ndarray) -> float:
-    """:func:`~twin.diagnosis.noise.white_sigma_of_differences` of ``d``, overwriting ``d`` with
-    ``|d|``: the same value (neither the trim nor the squares see the sign) with one full-length
-    temporary instead of four, which set the peak memory of a week-long log."""
-    if d.size == 0:
-        return 0.0
-    magnitude = np.abs(d)
-    scale = np.percentile(magnitude, 75, overwrite_input=True) / 0.6745  # partitions the temporary
-    del magnitude
-    if not scale > 0:  # mostly zero differences: the fallback scale needs the signed values
-        return white_sigma_of_differences(d)
-    np.abs(d, out=d)
-    kept = d[d <= 8 * scale]
-    np.square(kept, out=kept)
-    return float(np.sqrt(np.mean(kept) / 2.0))
-
-
-@dataclass
+@dataclass(frozen=True, eq=False)
 class SampleRateDiagnosis(Diagnosis):
-    """A diagnosis run on block means, quoting the residual RMS of the full-rate samples."""
+    """A diagnosis run on block means, quoting the residual RMS of the full-rate samples.
+
+    Attributes
+    ----------
+    sample_rms_g : float
+        Residual RMS of the full-rate samples [g].
+    factor : int
+        Samples per mean.
+    full_samples : int
+        Samples of the full-rate log.
+    full_rate_hz : float
+        Its sample rate [Hz].
+    """
 
     sample_rms_g: float = float("nan")
     factor: int = 1
+    full_samples: int = 0
+    full_rate_hz: float = float("nan")
 
     @property
     def rms_residual_g(self) -> float:
+        """Residual RMS of the full-rate samples [g]."""
         return self.sample_rms_g
+
+    @property
+    def samples(self) -> int:
+        """Samples of the full-rate log."""
+        return self.full_samples
+
+    @property
+    def sample_rate_hz(self) -> float:
+        """Sample rate of the full-rate log [Hz]."""
+        return self.full_rate_hz
+
+    @property
+    def means_of(self) -> int | None:
+        """Samples per row diagnosed."""
+        return self.factor
 
 
 def restore_sample_rate(d: Diagnosis, m: Measurement, blocks: BlockAverager, k: int) -> SampleRateDiagnosis:
@@ -195,9 +188,9 @@ def restore_sample_rate(d: Diagnosis, m: Measurement, blocks: BlockAverager, k: 
     -------
     SampleRateDiagnosis
         Residual RMS, noise floor, RMS after each candidate and the residual by segment at the
-        sample rate; the finding re-worded with them.
+        sample rate.
     """
-    p, cal = d.problem, d.calibration
+    p, cal = d.problem, d.fit
     model = p.y - cal.residual
     sums = block_sums(m, blocks, p.applied, model)
     A_avg = p.avg(cal.X_full)
@@ -208,10 +201,9 @@ def restore_sample_rate(d: Diagnosis, m: Measurement, blocks: BlockAverager, k: 
         c.rms_residual_g = sums.rms(cal.fixed_full + np.column_stack([cal.X_full, X]) @ beta)
     values = {f.name: getattr(d, f.name) for f in fields(Diagnosis) if f.init}
     values["noise_floor_g"] = sums.noise_floor_g
-    values["segments"] = residual_segments(p, cal.residual, sumsq=sums.sumsq(model), counts=sums.lengths)
-    out = SampleRateDiagnosis(**values, sample_rms_g=sums.rms(model), factor=k)
-    out.finding = finding_text(out)
-    return out
+    values["segments"] = residual_segments(p, cal.residual, d.segment_kind, sumsq=sums.sumsq(model), counts=sums.lengths)
+    return SampleRateDiagnosis(**values, sample_rms_g=sums.rms(model), factor=k, full_samples=len(m),
+                               full_rate_hz=m.sample_rate_hz)
 
 
 def decimated_problem(m: Measurement, rate_hz: float, config: DiagnosisConfig
@@ -222,7 +214,7 @@ def decimated_problem(m: Measurement, rate_hz: float, config: DiagnosisConfig
     ----------
     m : Measurement
     rate_hz : float
-        Its sample rate.
+        Its sample rate [Hz].
     config : DiagnosisConfig
 
     Returns

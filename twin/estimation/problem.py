@@ -11,14 +11,40 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from twin.arrays import run_slices
-from twin.diagnosis.noise import BlockAverager
+from twin.arrays import interleaved_folds, run_slices
+from twin.estimation.noise import BlockAverager
 from twin.effects import Composition, EffectInputs, get_effect
 from twin.measurement import Measurement
 
 
 @dataclass
 class DiagnosisConfig:
+    """Settings of the diagnosis; defaults as in docs/diagnosis.md §1.
+
+    Attributes
+    ----------
+    average_s : float
+        Block length of the screening means [s] (step 1).
+    smooth_temperature_s : float
+        Window of the zero-phase temperature smoothing [s] (step 1).
+    max_ar_order : int
+        Largest AR order of the noise model (step 3).
+    alpha, min_delta_bic, min_heldout_gain : float
+        Decision rule: adjusted p below ``alpha`` [1], ΔBIC above ``min_delta_bic`` [1], held-out
+        gain above ``min_heldout_gain`` [1] (step 4).
+    cv_folds : int
+        Cross-validation folds (step 4).
+    cv_block_s : float
+        Length of the interleaved cross-validation blocks [s] (step 4).
+    max_added : int
+        Most effects named by forward selection (step 5).
+    alias_novelty, alias_correlation : float
+        Novelty below which a candidate is untestable, and the |ρ| above which two are aliased [1]
+        (step 0).
+    slow_window_s : float
+        Smoothing window of the slow residual for the confidence label [s] (step 5).
+    """
+
     average_s: float = 10.0
     smooth_temperature_s: float = 10.0
     max_ar_order: int = 20
@@ -34,10 +60,36 @@ class DiagnosisConfig:
 
 
 class Problem:
-    """A measurement prepared for modelling."""
+    """A measurement prepared for modelling (docs/diagnosis.md §1 step 1).
+
+    Parameters
+    ----------
+    m : Measurement
+        Time [s], temperature [°C], output and applied acceleration [g], runs.
+    config : DiagnosisConfig
+    time_since_power_on_s : np.ndarray, optional
+        Per row [s]; given when ``m`` holds block means of a faster log.
+
+    Attributes
+    ----------
+    rate_hz : float
+        Sample rate of ``m`` [Hz].
+    applied : np.ndarray
+        Applied acceleration [g]; the run's median output where the orientation is unknown.
+    inputs : EffectInputs
+        The effects' inputs, die temperature = the smoothed thermometer [°C].
+    y : np.ndarray
+        Output minus applied [g].
+    avg : BlockAverager
+        The ``average_s`` blocks inside runs.
+    run_avg : np.ndarray
+        Run of each block.
+    nuisance : np.ndarray
+        Per-run offset columns, and the scale-factor column K1 (IEEE Std 1293) on a tumble.
+    nuisance_names : list of str
+    """
 
     def __init__(self, m: Measurement, config: DiagnosisConfig, time_since_power_on_s: np.ndarray | None = None):
-        """``time_since_power_on_s``: given when ``m`` holds block means of a faster log."""
         self.m, self.config = m, config
         rate = m.sample_rate_hz
         self.rate_hz = rate
@@ -71,6 +123,7 @@ class Problem:
 
     @property
     def n(self) -> int:
+        """Number of samples [1]."""
         return int(self.y.size)
 
 
@@ -96,7 +149,7 @@ def design_matrix(problem: Problem, comp: Composition, pinned: frozenset = froze
     names : list of (effect, amplitude)
         The columns' names.
     fixed : np.ndarray
-        The output of everything not free.
+        The output of everything not free [g].
     inputs : EffectInputs
         The inputs with the model's die temperature.
     """
@@ -131,6 +184,7 @@ def amplitude_bounds(names: list[tuple[str, str]], n_nuisance: int) -> tuple[np.
     Returns
     -------
     lo, hi : np.ndarray
+        Per column [the amplitude's unit; ±inf for the nuisance].
     """
     lo, hi = [-np.inf] * n_nuisance, [np.inf] * n_nuisance
     for eff, amp in names:
@@ -141,7 +195,8 @@ def amplitude_bounds(names: list[tuple[str, str]], n_nuisance: int) -> tuple[np.
 
 
 def cv_folds(problem: Problem) -> np.ndarray:
-    """Fold of each averaged block for interleaved-block cross-validation.
+    """Fold of each averaged block for interleaved-block cross-validation: the diagnosis's layout
+    (blocks of ``cv_block_s``, ``cv_folds`` folds) of :func:`twin.arrays.interleaved_folds`.
 
     Parameters
     ----------
@@ -154,5 +209,4 @@ def cv_folds(problem: Problem) -> np.ndarray:
     """
     cfg = problem.config
     block = max(1, int(round(cfg.cv_block_s / cfg.average_s)))
-    idx = np.arange(problem.run_avg.size)
-    return (idx // block) % cfg.cv_folds
+    return interleaved_folds(np.arange(problem.run_avg.size), cfg.cv_folds, block_rows=block)

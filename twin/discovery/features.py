@@ -22,11 +22,11 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-from scipy.ndimage import median_filter, uniform_filter1d
+from scipy.ndimage import median_filter
 from scipy.signal import lfilter
 
-from twin.arrays import run_slices
-from twin.diagnosis.noise import BlockAverager
+from twin.arrays import run_slices, temperature_rate_c_per_s
+from twin.estimation.noise import BlockAverager
 
 T_REF_C = 25.0
 LAG_TAUS_S = (30.0, 60.0, 120.0, 300.0, 600.0, 1200.0, 3600.0)
@@ -40,11 +40,24 @@ OSC_PERIODS_S = (120.0, 1800.0)  # band searched for the controller's limit cycl
 RAMP_MIN_S = 180.0  # a ramp lasts longer than this; shorter excursions of the median are the limit cycle
 HOLD_SMOOTH_S = 1200.0  # holds are found on a median this long: the limit cycle's own rate is not a ramp
 RATE_THRESHOLD_C_PER_MIN = 0.1  # |dT/dt| below this is a dwell (end of a temperature change)
+RATE_SMOOTH_BLOCKS = 6  # dT/dt is smoothed over this many blocks (a minute at 10 s) before differencing
 
 
 @dataclass(frozen=True)
 class FeatureSpec:
-    """One candidate term: ``kind`` with its parameters; ``label`` is the printed form."""
+    """One candidate term: ``kind`` with its parameters; ``label`` is the printed form.
+
+    Attributes
+    ----------
+    kind : str
+        ``power``, ``rate``, ``lag``, ``play``, ``power_on``, ``since_change``, ``step``, … (module docstring).
+    params : tuple of (str, float)
+        Its parameters, sorted by name, in each one's unit (``tau_s`` [s], ``width_c`` [°C] …).
+    label : str
+        The printed form.
+    unit : str
+        Unit of the feature itself (the coefficient is mg per this unit).
+    """
 
     kind: str
     params: tuple[tuple[str, float], ...] = ()
@@ -52,21 +65,64 @@ class FeatureSpec:
     unit: str = ""  # unit of the feature itself (the coefficient is mg per this unit)
 
     def p(self, name: str) -> float:
+        """One parameter's value.
+
+        Parameters
+        ----------
+        name : str
+            The parameter, e.g. ``tau_s``.
+
+        Returns
+        -------
+        float
+            Its value [the unit its name ends in].
+        """
         return dict(self.params)[name]
 
     def to_dict(self) -> dict:
+        """The spec as plain data, ``params`` as a dict (the form a plugin file stores).
+
+        Returns
+        -------
+        dict
+        """
         d = asdict(self)
         d["params"] = dict(self.params)
         return d
 
     @classmethod
     def from_dict(cls, d: dict) -> FeatureSpec:
+        """The spec from :meth:`to_dict`'s data.
+
+        Parameters
+        ----------
+        d : dict
+            ``kind``, and optionally ``params``, ``label``, ``unit``.
+
+        Returns
+        -------
+        FeatureSpec
+        """
         return cls(d["kind"], tuple(sorted(d.get("params", {}).items())), d.get("label", ""), d.get("unit", ""))
 
 
 @dataclass
 class BlockInputs:
-    """Block means of the inputs inside each run (the grid every feature is computed on)."""
+    """Block means of the inputs inside each run (the grid every feature is computed on).
+
+    Attributes
+    ----------
+    time_s, temp_c : np.ndarray
+        Block means of time [s] and temperature [°C].
+    run : np.ndarray
+        Run of each block.
+    t_on_s : np.ndarray
+        Block means of the time since power-on [s].
+    dt_s : float
+        Block length [s].
+    rate_c_per_min : np.ndarray
+        dT/dt of the one-minute smoothed temperature [°C/min], derived.
+    """
 
     time_s: np.ndarray
     temp_c: np.ndarray
@@ -76,16 +132,34 @@ class BlockInputs:
     rate_c_per_min: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
-        rate = np.zeros_like(self.temp_c)
-        for s in run_slices(self.run):
-            t = uniform_filter1d(self.temp_c[s], 6, mode="nearest")  # one-minute smoothing of the derivative
-            if t.size > 1:
-                rate[s] = np.gradient(t, self.time_s[s]) * 60.0
-        self.rate_c_per_min = rate
+        self.rate_c_per_min = _smoothed_rate_c_per_min(self, self.temp_c)
+
+
+def _smoothed_rate_c_per_min(b: BlockInputs, temp_c: np.ndarray) -> np.ndarray:
+    return temperature_rate_c_per_s(b.time_s, temp_c, b.run, smooth_s=RATE_SMOOTH_BLOCKS * b.dt_s) * 60.0
 
 
 def block_inputs(time_s, temp_c, run_index, t_on_s, average_s: float) -> tuple[BlockInputs, BlockAverager]:
-    """Block means of the inputs (blocks of ``average_s`` inside each run) and the averager."""
+    """Block means of the inputs (blocks of ``average_s`` inside each run) and the averager.
+
+    Parameters
+    ----------
+    time_s, temp_c : array_like
+        Sample times [s] and temperature [°C].
+    run_index : array_like
+        Run of each sample.
+    t_on_s : array_like or None
+        Time since power-on [s]; None: time since the first sample.
+    average_s : float
+        Block length [s].
+
+    Returns
+    -------
+    BlockInputs
+        The inputs on the block grid.
+    BlockAverager
+        The blocks.
+    """
     time_s = np.asarray(time_s, float)
     dt = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
     avg = BlockAverager.build(np.asarray(run_index), int(round(average_s / max(dt, 1e-12))))
@@ -148,15 +222,26 @@ def _oscillation(b: BlockInputs, window_s: float) -> np.ndarray:
 def holds(b: BlockInputs) -> list[slice]:
     """Stretches where the set-point holds: everything but the ramps, a ramp being |dT/dt| of the
     temperature's 20-min running median above :data:`RATE_THRESHOLD_C_PER_MIN` for longer than
-    :data:`RAMP_MIN_S` (the limit cycle alone can reach 0.5 °C/min, but not for that long)."""
+    :data:`RAMP_MIN_S` (the limit cycle alone can reach 0.5 °C/min, but not for that long).
+
+    Parameters
+    ----------
+    b : BlockInputs
+
+    Returns
+    -------
+    list of slice
+        Block ranges of the holds, run by run.
+    """
     w = max(3, int(round(HOLD_SMOOTH_S / b.dt_s)) | 1)
     min_ramp = max(1, int(round(RAMP_MIN_S / b.dt_s)))
+    median = np.concatenate([median_filter(b.temp_c[s], size=w, mode="nearest") for s in run_slices(b.run)])
+    rate = _smoothed_rate_c_per_min(b, median)
     out = []
     for s in run_slices(b.run):
         if s.stop - s.start < 3:
             continue
-        smooth = uniform_filter1d(median_filter(b.temp_c[s], size=w, mode="nearest"), 6, mode="nearest")
-        moving = np.abs(np.gradient(smooth, b.time_s[s]) * 60.0) >= RATE_THRESHOLD_C_PER_MIN
+        moving = np.abs(rate[s]) >= RATE_THRESHOLD_C_PER_MIN
         edges = np.flatnonzero(np.diff(np.r_[0, moving.astype(np.int8), 0]))
         for i, j in zip(edges[::2], edges[1::2]):
             if j - i < min_ramp:
@@ -200,7 +285,17 @@ def oscillation_period_s(b: BlockInputs) -> float | None:
     """The period of the temperature's short oscillation in the holds: the one of
     :data:`OSC_PERIODS_S` (log grid) whose per-hold sinusoid + cubic baseline leaves the least
     residual — the generalised Lomb–Scargle periodogram with a polynomial baseline (Zechmeister &
-    Kürster, *A&A* 496, 2009), on holds of at least the longest period; None without one."""
+    Kürster, *A&A* 496, 2009), on holds of at least the longest period; None without one.
+
+    Parameters
+    ----------
+    b : BlockInputs
+
+    Returns
+    -------
+    float or None
+        The period [s], or None without a long enough hold.
+    """
     designs = _hold_designs(b, OSC_PERIODS_S[1]) if b.temp_c.size else []
     if not designs:
         return None
@@ -210,7 +305,23 @@ def oscillation_period_s(b: BlockInputs) -> float | None:
 
 
 def block_feature(spec: FeatureSpec, b: BlockInputs) -> np.ndarray:
-    """The feature on the block grid."""
+    """The feature on the block grid.
+
+    Parameters
+    ----------
+    spec : FeatureSpec
+    b : BlockInputs
+
+    Returns
+    -------
+    np.ndarray
+        One value per block [``spec.unit``].
+
+    Raises
+    ------
+    ValueError
+        An unknown feature kind.
+    """
     dT, R = b.temp_c - T_REF_C, b.rate_c_per_min
     k = spec.kind
     if k == "power":
@@ -243,7 +354,23 @@ def block_feature(spec: FeatureSpec, b: BlockInputs) -> np.ndarray:
 
 
 def full_rate(values_blocks: np.ndarray, b: BlockInputs, time_s: np.ndarray, run_index: np.ndarray) -> np.ndarray:
-    """A block-grid feature interpolated back to the sample times, run by run."""
+    """A block-grid feature interpolated back to the sample times, run by run.
+
+    Parameters
+    ----------
+    values_blocks : np.ndarray
+        The feature per block [its unit].
+    b : BlockInputs
+    time_s : np.ndarray
+        Sample times [s].
+    run_index : np.ndarray
+        Run of each sample.
+
+    Returns
+    -------
+    np.ndarray
+        The feature per sample [its unit].
+    """
     out = np.empty(np.shape(time_s), float)
     runs_full = run_slices(np.asarray(run_index))
     runs_block = run_slices(b.run)
@@ -253,7 +380,19 @@ def full_rate(values_blocks: np.ndarray, b: BlockInputs, time_s: np.ndarray, run
 
 
 def feature_full(spec: FeatureSpec, time_s, temp_c, run_index, t_on_s, average_s: float) -> np.ndarray:
-    """The feature at the sample times (what a discovered plugin's basis computes)."""
+    """The feature at the sample times (what a discovered plugin's basis computes).
+
+    Parameters
+    ----------
+    spec : FeatureSpec
+    time_s, temp_c, run_index, t_on_s, average_s
+        As for :func:`block_inputs` ([s], [°C], run, [s] or None, [s]).
+
+    Returns
+    -------
+    np.ndarray
+        The feature per sample [``spec.unit``].
+    """
     b, _ = block_inputs(time_s, temp_c, run_index, t_on_s, average_s)
     return full_rate(block_feature(spec, b), b, np.asarray(time_s, float), run_index)
 
@@ -263,7 +402,17 @@ def _spec(kind: str, label: str, unit: str, **params: float) -> FeatureSpec:
 
 
 def dictionary(b: BlockInputs) -> list[FeatureSpec]:
-    """Every candidate term for this temperature history (steps over its 5–95 % range)."""
+    """Every candidate term for this temperature history (steps over its 5–95 % range).
+
+    Parameters
+    ----------
+    b : BlockInputs
+
+    Returns
+    -------
+    list of FeatureSpec
+        The dictionary searched by :mod:`twin.discovery.search`.
+    """
     specs = [_spec("power", f"ΔT^{n}", f"°C^{n}" if n > 1 else "°C", n=n) for n in (1, 2, 3)]
     specs += [_spec("rate", "dT/dt", "°C/min"), _spec("rate2", "(dT/dt)²", "(°C/min)²"),
               _spec("abs_rate", "|dT/dt|", "°C/min"), _spec("temp_rate", "ΔT·dT/dt", "°C²/min")]

@@ -33,7 +33,8 @@ def orthonormal_basis(Aw: np.ndarray) -> np.ndarray:
 
 
 def novelty(X: np.ndarray, Q: np.ndarray) -> float:
-    """Share of a column's variance the design spanned by ``Q`` cannot mimic: 1 − R²(X ~ J).
+    """Share of a column's variance the design spanned by ``Q`` cannot mimic: 1 − R²(X ~ J)
+    (docs/diagnosis.md §1 step 0).
 
     The smallest over the columns of X; 0 for a (numerically) constant column.
 

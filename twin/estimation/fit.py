@@ -12,14 +12,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from twin.diagnosis.linalg import (
+from twin.estimation.linalg import (
     closest_column,
     fit_bounded_linear,
     novelty,
     orthonormal_basis,
 )
-from twin.diagnosis.noise import ARModel, fit_ar
-from twin.diagnosis.problem import (
+from twin.estimation.noise import ARModel, fit_ar
+from twin.estimation.problem import (
     DiagnosisConfig,
     Problem,
     amplitude_bounds,
@@ -29,7 +29,35 @@ from twin.effects import Composition, EffectInputs
 
 
 @dataclass
-class Calibration:
+class TwinFit:
+    """The twin calibrated to a measurement (docs/diagnosis.md §1 step 2).
+
+    Attributes
+    ----------
+    composition : Composition
+        The model with its fitted values.
+    names : list of (effect, amplitude)
+        Free amplitudes, in column order after the nuisance.
+    beta, cov : np.ndarray
+        Nuisance then amplitudes [g per column unit], and their covariance from the prewhitened fit.
+    ar : ARModel
+        The residual's noise model.
+    X_full, fixed_full : np.ndarray
+        Nuisance + amplitude columns, and the output of everything not free [g], full rate.
+    inputs : EffectInputs
+        The inputs with the model's die temperature.
+    residual, residual_avg : np.ndarray
+        The residual at full rate and on block means [g].
+    rss_prewhitened : float
+        Σ of the prewhitened residual on block means squared: the BIC's RSS [g²].
+    nonlinear_ci : dict
+        (effect, parameter) → 95 % profile-likelihood interval [the parameter's unit].
+    pinned : list of ((effect, amplitude), partner)
+        Amplitudes held at their values, exactly aliased with ``partner``.
+    temperature_derivative : np.ndarray, optional
+        Cache: ∂(drift)/∂(die temperature) [g/°C].
+    """
+
     composition: Composition
     names: list[tuple[str, str]]  # free amplitudes, in column order after the nuisance
     beta: np.ndarray  # nuisance then amplitudes
@@ -40,6 +68,7 @@ class Calibration:
     inputs: EffectInputs
     residual: np.ndarray  # full rate
     residual_avg: np.ndarray
+    rss_prewhitened: float  # Σ of the prewhitened residual on block means squared: the BIC's RSS
     nonlinear_ci: dict[tuple[str, str], tuple[float, float]] = field(default_factory=dict)
     pinned: list[tuple[tuple[str, str], str]] = field(default_factory=list)  # (effect, amplitude), partner
     temperature_derivative: np.ndarray | None = None  # cache: ∂(drift)/∂(die temperature)
@@ -51,10 +80,22 @@ class Calibration:
 
     @property
     def prediction_minus_applied(self) -> np.ndarray:
+        """The calibrated twin's output minus the applied acceleration, full rate [g]."""
         return self.X_full @ self.beta + self.fixed_full
 
     def equation(self, nuisance_names: list[str] | None = None) -> str:
-        """The calibrated twin: each effect with its fitted parameters, units and 95 % intervals."""
+        """The calibrated twin: each effect with its fitted parameters, units and 95 % intervals.
+
+        Parameters
+        ----------
+        nuisance_names : list of str, optional
+            Names of the nuisance columns (default ``nuisance0`` …).
+
+        Returns
+        -------
+        str
+            One line per offset [g] and per effect.
+        """
         n_nuisance = self.beta.size - len(self.names)
         lines = ["output − applied = Σ offsets + Σ effects, with"]
         for j, name in enumerate(nuisance_names or [f"nuisance{j}" for j in range(n_nuisance)]):
@@ -129,8 +170,8 @@ def exact_aliases(problem: Problem, comp: Composition) -> list[tuple[tuple[str, 
     return out
 
 
-def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | None = None,
-              intervals: bool = True) -> Calibration:
+def fit_twin(problem: Problem, comp: Composition, config: DiagnosisConfig | None = None,
+              intervals: bool = True) -> TwinFit:
     """Fit the model's free parameters to the measurement (see the module docstring).
 
     Parameters
@@ -147,7 +188,7 @@ def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | Non
 
     Returns
     -------
-    Calibration
+    TwinFit
     """
     config = config or problem.config
     aliases = exact_aliases(problem, comp)
@@ -191,7 +232,7 @@ def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | Non
         effects[idx] = effects[idx].with_values(**{amp: float(np.clip(beta[nn + j], lo[nn + j], hi[nn + j]))})
     comp = Composition(effects)
     residual = problem.y - X_full @ beta - fixed
-    cal = Calibration(comp, names, beta, cov, ar, X_full, fixed, inputs, residual, r_avg)
+    cal = TwinFit(comp, names, beta, cov, ar, X_full, fixed, inputs, residual, r_avg, float(rw @ rw))
     if intervals:
         cal.nonlinear_ci = profile_ci(problem, comp, ar, slots, pinned)
     cal.pinned = aliases
@@ -200,7 +241,7 @@ def calibrate(problem: Problem, comp: Composition, config: DiagnosisConfig | Non
 
 def profile_ci(problem: Problem, comp: Composition, ar: ARModel, slots, pinned: frozenset = frozenset()) -> dict:
     """95 % profile-likelihood interval of each nonlinear parameter: n ln(RSS/RSS_min) ≤ 3.84,
-    RSS of the prewhitened averaged fit.
+    RSS of the prewhitened averaged fit (3.84: the 95 % point of χ²(1); Wilks 1938, Ann. Math. Stat. 9:60).
 
     Parameters
     ----------

@@ -22,6 +22,20 @@ _WALK_TEST = "repeat the test: a physical drift repeats, a random walk does not"
 
 @dataclass(frozen=True)
 class Mechanism:
+    """One physical mechanism that makes a residual signature.
+
+    Attributes
+    ----------
+    name : str
+        The mechanism, in words.
+    effect : str or None
+        The library effect that models it, or ``None`` (outside the library).
+    reason : str
+        One line: why it makes this signature.
+    test : str
+        What separates it from the others.
+    """
+
     name: str
     effect: str | None  # the library effect that models it, or None (outside the library)
     reason: str  # one line: why it makes this signature
@@ -29,6 +43,7 @@ class Mechanism:
 
     @property
     def in_library(self) -> bool:
+        """Whether a library effect models the mechanism [bool]."""
         return self.effect is not None
 
 
@@ -110,29 +125,70 @@ def lookalikes(family: str, effect: str | None = None) -> list[Mechanism]:
     Parameters
     ----------
     family : str
+        The effect family (a key of :data:`CATALOGUE`).
     effect : str, optional
         The named effect.
 
     Returns
     -------
     list of Mechanism
+        The family's mechanisms, ``effect``'s first; empty for an unknown family.
     """
     mechs = list(CATALOGUE.get(family, ()))
     return sorted(mechs, key=lambda m: m.effect != effect)
 
 
 def attribution(family: str, effect: str | None) -> str:
-    """``"mechanism"`` when no mechanism outside the library shares the signature, else ``"signature"``."""
+    """``"mechanism"`` when no mechanism outside the library shares the signature, else ``"signature"``.
+
+    Parameters
+    ----------
+    family : str
+        The effect family.
+    effect : str or None
+        The named effect.
+
+    Returns
+    -------
+    str
+        ``"mechanism"`` or ``"signature"``.
+    """
     return "signature" if any(not m.in_library for m in lookalikes(family, effect)) else "mechanism"
 
 
 def lookalikes_json(family: str, effect: str | None) -> list[dict]:
-    """The catalogue entries as plain data, with ``in_library``."""
+    """The catalogue entries as plain data, with ``in_library``.
+
+    Parameters
+    ----------
+    family : str
+        The effect family.
+    effect : str or None
+        The named effect, listed first.
+
+    Returns
+    -------
+    list of dict
+        One dict of :class:`Mechanism` fields and ``in_library`` per mechanism.
+    """
     return [{**asdict(m), "in_library": m.in_library} for m in lookalikes(family, effect)]
 
 
 def lookalikes_sentence(family: str, effect: str | None) -> str:
-    """One sentence naming the other mechanisms and the tests that separate them ('' if none)."""
+    """One sentence naming the other mechanisms and the tests that separate them ('' if none).
+
+    Parameters
+    ----------
+    family : str
+        The effect family.
+    effect : str or None
+        The named effect (left out of the sentence).
+
+    Returns
+    -------
+    str
+        The sentence, or ``""`` when no other mechanism shares the signature.
+    """
     others = [m for m in lookalikes(family, effect) if m.effect != effect]
     if not others:
         return ""

@@ -1,0 +1,95 @@
+"""The compare report's evidence: the candidates' ΔBIC ranking and the error falling over the ledger."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+from twin.reporting.plots import Display
+
+
+@dataclass
+class CandidateRankingDisplay(Display):
+    """ΔBIC of the best-ranked candidates (log scale), significant ones in red.
+
+    Attributes
+    ----------
+    labels, delta_bic, significant : list
+        Best first: effect (family), ΔBIC (at least 0.1) [1], significant.
+    threshold : float
+        ``min_delta_bic`` [1].
+    """
+
+    labels: list
+    delta_bic: list
+    significant: list
+    threshold: float
+    title = "Candidate ranking"
+
+    @classmethod
+    def from_diagnosis(cls, d, top: int = 8):
+        """``None`` when nothing was screened.
+        Parameters
+        ----------
+        d : Diagnosis
+    top : int
+        Candidates shown, best first.
+
+        Returns
+        -------
+        CandidateRankingDisplay or None
+        """
+        c = d.candidates[:top]
+        if not c:
+            return None
+        return cls([f"{x.effect} ({x.family})" for x in c], [max(x.delta_bic, 0.1) for x in c],
+                   [x.significant for x in c], d.problem.config.min_delta_bic)
+
+    def _draw(self, ax):
+        colors = ["C3" if s else "0.6" for s in self.significant]
+        ax.barh(self.labels[::-1], self.delta_bic[::-1], color=colors[::-1])
+        ax.set_xscale("log")
+        ax.axvline(self.threshold, color="k", ls=":")
+        ax.set_xlabel("ΔBIC (red: significant)")
+
+
+@dataclass
+class LedgerDisplay(Display):
+    """The residual RMS falling as effects are added, beside the noise floor.
+
+    Attributes
+    ----------
+    labels, rms_mg, noise_floor_mg : list
+        Per ledger entry: the model, its residual RMS and the noise floor [mg].
+    """
+
+    labels: list
+    rms_mg: list
+    noise_floor_mg: list
+    title = "The error falling as effects are added (ledger)"
+
+    @classmethod
+    def from_ledger(cls, ledger: list[dict]):
+        """``None`` for fewer than two ledger entries.
+
+        Parameters
+        ----------
+        ledger : list of dict
+            The ledger lines of one data set, oldest first.
+
+        Returns
+        -------
+        LedgerDisplay or None
+        """
+        if len(ledger) < 2:
+            return None
+        labels = ["+".join(e["model"]) if len(e["model"]) < 4 else f"… +{e['model'][-1]}" for e in ledger]
+        return cls(labels, [e["rms_residual_g"] * 1e3 for e in ledger], [e["noise_floor_g"] * 1e3 for e in ledger])
+
+    def _draw(self, ax):
+        x = range(len(self.labels))
+        ax.plot(x, self.rms_mg, "o-", label="residual RMS")
+        ax.plot(x, self.noise_floor_mg, "--", label="noise floor")
+        ax.set_xticks(x, self.labels, rotation=20, ha="right", fontsize=7)
+        ax.set_ylabel("mg")
+        ax.legend(fontsize=8)

@@ -1,0 +1,43 @@
+"""The JSON Schema of each command's ``--json``, generated from its result types."""
+
+from __future__ import annotations
+
+from typing import Union
+
+from twin.calibration.result import CalibrationDocument
+from twin.errors import TwinError
+from twin.finding.result import AxesCompareResult, CompareResult
+from twin.fleet.result import FleetResult, SimulatedFleet
+from twin.results import json_schema
+from twin.studies.result import DoeResult
+
+
+def result_types() -> dict[str, object]:
+    """Result name (``twin schema --result NAME``) → the type of what ``--json`` writes.
+
+    Returns
+    -------
+    dict of str to type
+    """
+    return {"compare": Union[CompareResult, AxesCompareResult], "fleet": FleetResult, "fleet-simulate": SimulatedFleet,
+            "doe": DoeResult, "calibration": CalibrationDocument}
+
+
+def result_schema(name: str) -> dict:
+    """The JSON Schema of the result ``name``.
+
+    Parameters
+    ----------
+    name : str
+        One of :func:`result_types`.
+
+    Returns
+    -------
+    dict
+    """
+    types = result_types()
+    if name not in types:
+        raise TwinError(f"--result: expected one of {', '.join(sorted(types))}, got {name!r}")
+    schema = json_schema(types[name])
+    schema["title"] = f"twin {name} --json"
+    return schema
