@@ -23,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _common import write_json  # noqa: E402
 
-from twin.studies.doe import load_study, run_study  # noqa: E402
+from twin.studies.doe import load_study, run_design_points  # noqa: E402
 
 STUDY = """\
 name: throughput
@@ -49,7 +49,7 @@ def main() -> None:
         for label, workers, executor in (("local_1_worker", 1, "local"), ("local_2_workers", 2, "local"),
                                          ("dask_2_workers", 2, "dask")):
             t0 = time.perf_counter()
-            runs = run_study(study, base, Path(d) / label, workers, executor)
+            runs = run_design_points(study, base, Path(d) / label, workers, executor)
             dt = time.perf_counter() - t0
             result[label] = {"seconds": dt, "runs_per_minute": len(runs) * 60 / dt,
                              "failed": sum(r["status"] != "ok" for r in runs)}

@@ -50,11 +50,11 @@ def _fleet_scenario(work: Path, units: int) -> Path:
 
 def _analyse(spec, out: Path, workers: int, executor: str) -> tuple[float, list[dict]]:
     from twin.fleet.population import population, write_population, write_table
-    from twin.fleet.runner import run_fleet
+    from twin.fleet.runner import run_units
 
     shutil.rmtree(out, ignore_errors=True)
     t0 = time.perf_counter()
-    run = run_fleet(spec, out, workers, executor)
+    run = run_units(spec, out, workers, executor)
     seconds = time.perf_counter() - t0
     pop = population(run.records)
     write_table(out, run.records)

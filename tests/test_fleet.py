@@ -21,7 +21,7 @@ from schemas import check_schema
 from twin.fleet.ledger import LEDGER, append_record, exclusive, open_ledger, read_ledger
 from twin.fleet.population import population, robust_z, table_rows
 from twin.fleet.result import FleetRow, ParameterValue
-from twin.fleet.runner import dask_client, run_fleet
+from twin.fleet.runner import dask_client, run_units
 from twin.fleet.scenario import draw_unit, load_fleet_scenario
 from twin.fleet.simulate import score_against_truth, simulate_fleet
 from twin.fleet.spec import FleetError, load_fleet_spec
@@ -65,7 +65,7 @@ def fleet(tmp_path_factory):
     root = tmp_path_factory.mktemp("fleet")
     sim = simulate_fleet(_write_fleet(root / "scn"), root / "sim")
     spec = load_fleet_spec(sim.spec)
-    run = run_fleet(spec, root / "out", workers=1)
+    run = run_units(spec, root / "out", workers=1)
     return {"root": root, "sim": sim, "spec": spec, "run": run, "truth": json.loads((root / "sim/truth.json").read_text())}
 
 
@@ -105,11 +105,11 @@ def test_rerun_skips_finished_units_and_redoes_a_torn_line(fleet, tmp_path):
     lines = log.read_text().splitlines(keepends=True)
     log.write_text("".join(lines[:-1]) + lines[-1][:40])  # a kill during the last append
     (out / "units/unit0000/.compare.json.abc123xy.tmp").write_text("{")  # a killed atomic write
-    run = run_fleet(fleet["spec"], out, workers=1)
+    run = run_units(fleet["spec"], out, workers=1)
     assert run.ran == 1 and run.skipped == 5 and run.torn_dropped and run.temporaries_removed == 1
     assert len(log.read_text().splitlines()) == 6 and len(read_ledger(log)) == 6
     assert table_rows(run.records) == table_rows(fleet["run"].records)
-    again = run_fleet(fleet["spec"], out, workers=1)
+    again = run_units(fleet["spec"], out, workers=1)
     assert again.ran == 0 and again.skipped == 6
 
 
@@ -166,7 +166,7 @@ def test_a_foreign_ledger_line_is_refused_in_one_line(fleet, tmp_path):
     out.mkdir()
     (out / LEDGER).write_text('{"key": "abc", "status": "ok"}\n')
     with pytest.raises(FleetError, match=r"units.jsonl:1: not a unit record of a fleet"):
-        run_fleet(fleet["spec"], out)
+        run_units(fleet["spec"], out)
 
 
 def test_bad_unit_logs_are_rows_with_an_error(fleet, tmp_path):
@@ -178,7 +178,7 @@ def test_bad_unit_logs_are_rows_with_an_error(fleet, tmp_path):
     (logs / "corrupt.csv").write_bytes(Path(good).read_bytes()[:3000] + b"\x00\xff,garbage,,\n1,2\n")
     (logs / "columns.csv").write_text("t,temp,acc\n0,25,1\n1,25,1\n")
     spec = load_fleet_spec(str(logs / "*.csv"), scenario=fleet["spec"].scenario)
-    run = run_fleet(spec, tmp_path / "out", workers=2)
+    run = run_units(spec, tmp_path / "out", workers=2)
     by = {r.unit: r for r in run.records}
     assert by["good"].status == "ok"
     for unit in ("empty", "corrupt", "columns"):
@@ -191,7 +191,7 @@ def test_local_pool_and_dask_give_identical_tables(fleet, tmp_path):
     spec.units = spec.units[:3]
     # a LocalCluster of threads: worker processes take tens of seconds to start on a loaded machine
     # (benchmarks/bench_fleet.py compares 200 units on a LocalCluster of processes)
-    run = run_fleet(spec, tmp_path / "dask", workers=2, executor="dask", dask_processes=False)
+    run = run_units(spec, tmp_path / "dask", workers=2, executor="dask", dask_processes=False)
     assert table_rows(run.records) == table_rows(fleet["run"].records[:3])
 
 
@@ -295,7 +295,7 @@ def test_fleet_calibrate_command_per_unit(tmp_path):
     write_ulog(tmp_path / "logs" / "vehicle0.ulg", chamber_run(n=400))
     (tmp_path / "logs" / "vehicle1.ulg").write_bytes(b"ULog\x01")  # truncated: its row says why
     (tmp_path / "f.yaml").write_text("command: calibrate\nunits: logs\n")
-    run = run_fleet(load_fleet_spec(tmp_path / "f.yaml"), tmp_path / "out", workers=1)
+    run = run_units(load_fleet_spec(tmp_path / "f.yaml"), tmp_path / "out", workers=1)
     assert [r.status for r in run.records] == ["ok", "error"], run.records
     assert "vehicle1.ulg" in run.records[1].error
     doc = json.loads((tmp_path / "out" / run.records[0].reports.json).read_text())

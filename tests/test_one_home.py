@@ -19,12 +19,7 @@ NOISE_HOME = "twin/estimation/noise.py"
 FACE_HOME = "twin/measurement/quality.py"
 
 #: public names defined in two modules on purpose, with the reason (a new collision fails)
-SHARED_NAMES = {
-    # the workflow (twin.workflows) wraps the runner of the same operation and writes its outputs;
-    # the runners are to be renamed when the edits under way in twin/fleet and twin/studies land
-    "run_fleet": {"twin/fleet/runner.py", "twin/workflows/fleet.py"},
-    "run_study": {"twin/studies/runner.py", "twin/workflows/study.py"},
-}
+SHARED_NAMES: dict[str, set[str]] = {}
 #: noise-floor functions outside the home, with why they are not a second estimator
 NOISE_FLOOR_ELSEWHERE = {
     # plain σ of held-out differences, untrimmed: the calibration tables quote it, and the trim moves

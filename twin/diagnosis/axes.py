@@ -161,7 +161,7 @@ def axis_rows(quality: LogQuality, axis: str, applied_g: float | str | None, col
         elif label in ("", "tilted"):
             value, reason = None, f"excluded: gravity off every face ({label or 'one axis'}), orientation not given"
         else:
-            value, reason = float(face_gravity(label)[col]), f"on the {label} face"
+            value, reason = float(face_gravity(label)[col]) + 0.0, f"on the {label} face"  # + 0.0: no "−0 g"
         use = value is not None or not known
         keep[s.start:s.stop] = use
         applied[s.start:s.stop] = np.nan if value is None else value

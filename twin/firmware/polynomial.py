@@ -8,8 +8,9 @@ result is exported through the JSON and C-header writers. PX4 parameters hold X0
 parameters and refuses a higher order rather than dropping its terms.
 
 Folds (:func:`twin.arrays.interleaved_folds`, the project's one fold builder): the record is cut
-into ``folds × blocks_per_fold`` contiguous time blocks and block b is held out in fold ``b % folds``. Contiguous blocks keep neighbouring, correlated samples together
-(random splits would leak them); interleaving gives every fold the whole temperature programme.
+into ``folds × blocks_per_fold`` contiguous time blocks and block b is held out in fold
+``b % folds``. Contiguous blocks keep neighbouring, correlated samples together (random splits
+would leak them); interleaving gives every fold the whole temperature programme.
 """
 
 from __future__ import annotations

@@ -116,7 +116,7 @@ def _record(log: Path, rec: FleetRow, done: dict, tick) -> None:
     tick(rec)
 
 
-def run_fleet(spec: FleetSpec, out_dir: Path, workers: int = 1, executor: str = "local",
+def run_units(spec: FleetSpec, out_dir: Path, workers: int = 1, executor: str = "local",
               scheduler: str | None = None, progress=None, connect_timeout_s: float = 10.0,
               dask_processes: bool = True) -> FleetRun:
     """Analyse every unit not yet in ``out_dir/units.jsonl``; return all finished rows by unit id.
@@ -169,7 +169,7 @@ def run_fleet(spec: FleetSpec, out_dir: Path, workers: int = 1, executor: str = 
 
 
 def _run(spec, out_dir, workers, executor, scheduler, progress, connect_timeout_s, dask_processes, client) -> FleetRun:
-    """:func:`run_fleet` once the output folder is known usable (``client``: a connected scheduler)."""
+    """:func:`run_units` once the output folder is known usable (``client``: a connected scheduler)."""
     with exclusive(out_dir):
         state = open_ledger(out_dir)
         log = out_dir / LEDGER
@@ -190,7 +190,7 @@ def _run(spec, out_dir, workers, executor, scheduler, progress, connect_timeout_
                 for fut in as_completed(futures):
                     _record(log, fut.result(), done, tick)
             finally:
-                if own:  # a local cluster started here ends here; a named scheduler is closed by run_fleet
+                if own:  # a local cluster started here ends here; a named scheduler is closed by run_units
                     cluster = client.cluster
                     client.close()
                     if cluster is not None:

@@ -71,11 +71,10 @@ def face_gravity(label: str) -> np.ndarray:
     Returns
     -------
     ndarray
-        Unit gravity vector [g].
+        Unit gravity vector [g]; a minus face's zeros carry its sign (−0.0), as the six-position
+        fits have always been given them (least squares differs in the last bits otherwise).
     """
-    g = np.zeros(3)
-    g[AXES.index(label[1])] = 1.0 if label[0] == "+" else -1.0
-    return g
+    return np.eye(3)[AXES.index(label[1])] * (1.0 if label[0] == "+" else -1.0)
 
 
 def cluster_directions(directions, tol_deg: float = 10.0) -> DirectionClusters:

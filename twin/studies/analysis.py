@@ -26,7 +26,7 @@ def table(study: Study, runs: list[dict]) -> tuple[list[str], np.ndarray, list[d
     ----------
     study : Study
     runs : list of dict
-        The finished runs (:func:`twin.studies.runner.run_study`), in design order.
+        The finished runs (:func:`twin.studies.runner.run_design_points`), in design order.
 
     Returns
     -------

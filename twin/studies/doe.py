@@ -28,11 +28,11 @@ from twin.studies.responses import (
     register_response,
 )
 from twin.studies.result import DoeResult, MainEffect, SobolIndex, StudyAnalysis
-from twin.studies.runner import evaluate_run, read_runs, run_study
+from twin.studies.runner import evaluate_run, read_runs, run_design_points
 from twin.studies.spec import DesignSpec, FactorSpec, Study, StudyError, load_study
 
 __all__ = ["RESPONSES", "DesignSpec", "DoeResult", "FactorSpec", "MainEffect", "Response", "ResponseError", "RunContext",
            "SobolIndex", "Study", "StudyAnalysis", "StudyError",
            "design_points", "evaluate_run", "get_response", "interactions", "load_plugin", "load_study",
-           "main_effects", "numeric_responses", "plan", "read_runs", "register_response", "resolve", "run_study",
+           "main_effects", "numeric_responses", "plan", "read_runs", "register_response", "resolve", "run_design_points",
            "set_path", "sobol_indices", "table", "write_outputs", "write_plots"]

@@ -168,7 +168,7 @@ def _finished(record: dict | None, responses: list[str]) -> bool:
     return record["status"] != "ok" or all(r in record.get("responses", {}) for r in responses)
 
 
-def run_study(study: Study, base: dict, out_dir: Path, workers: int = 1, executor: str = "local",
+def run_design_points(study: Study, base: dict, out_dir: Path, workers: int = 1, executor: str = "local",
               scheduler: str | None = None, progress=None) -> list[dict]:
     """Run every pending job; return all finished runs in design order.
 

@@ -124,7 +124,7 @@ def run_fleet(opts: FleetOptions, progress: Progress | None = None,
         # the fleet's own files never over an input (a --scenario named out/table.csv was replaced),
         # nor a folder where a file goes (units.jsonl as a folder failed after the first unit)
         check_paths([*inputs, opts.spec, fs.scenario], [output / name for name in (LEDGER, ".lock", *FOLDER_OUTPUTS)])
-    run = runner.run_fleet(fs, output, opts.workers, opts.executor, opts.scheduler,
+    run = runner.run_units(fs, output, opts.workers, opts.executor, opts.scheduler,
                            progress=_counter(progress, len(fs.units)))
     pop = population(run.records, fs.outlier_threshold)
     write_table(output, run.records)

@@ -91,7 +91,7 @@ def run_study(opts: StudyOptions, progress: Progress | None = None,
 
     if progress is not None:
         progress(0, total)
-    runs = doe.run_study(st, base, output, opts.workers, opts.executor, opts.scheduler,
+    runs = doe.run_design_points(st, base, output, opts.workers, opts.executor, opts.scheduler,
                          progress=tick if progress is not None else None)
     failed = [r for r in runs if r["status"] != "ok"]
     if runs and len(failed) == len(runs):  # nothing to analyse: say why instead of an empty "success"
