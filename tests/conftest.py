@@ -114,3 +114,15 @@ def assert_one_clear_line(text: str, fragments: list[str]) -> None:
 @pytest.fixture(scope="session")
 def paper_path() -> Path:
     return ROOT / "scenarios" / "paper_iis328dq.yaml"
+
+
+@pytest.fixture(scope="session")
+def quick_benchmark(tmp_path_factory):
+    """The folder of one ``twin benchmark --quick --seeds 1 --report`` run, shared by the session (the
+    golden check and the benchmark's own test read the same run: it trains six networks)."""
+    d = tmp_path_factory.mktemp("benchmark_quick")
+    r = run_cli("benchmark", "scenarios/paper_iis328dq.yaml", "--quick", "--seeds", "1", "--json",
+                str(d / "benchmark_quick.json"), "--report", str(d / "rep"), timeout=1200)
+    assert r.returncode == 0, r.stderr
+    return d
+

@@ -150,16 +150,10 @@ def test_polynomial_picks_order_by_validation():
     assert m.order_ == 3
 
 
-def test_twin_benchmark_quick_json(tmp_path):
+def test_twin_benchmark_quick_json(quick_benchmark):
     import json
 
-    from conftest import run_cli
-
-    out = tmp_path / "bench.json"
-    r = run_cli("benchmark", "scenarios/paper_iis328dq.yaml", "--quick", "--seeds", "1", "--json", str(out),
-                "--report", str(tmp_path / "rep"), timeout=1200)  # ~1 min alone; room for a loaded machine
-    assert r.returncode == 0, r.stderr
-    b = json.loads(out.read_text())
+    b = json.loads((quick_benchmark / "benchmark_quick.json").read_text())
     assert b["noise_floor_mse"] > 0
     models = {row["model"] for row in b["table1"]}
     assert {"conventional", "model1", "model2_ga", "model3_psoga", "polynomial_T", "extension_bpnn_dTdt",
@@ -174,7 +168,7 @@ def test_twin_benchmark_quick_json(tmp_path):
     twin = next(row for row in b["table1"] if row["model"] == "physics_twin")
     ext = next(row for row in b["table1"] if row["model"] == "extension_bpnn_dTdt")
     assert twin["ratio_mean"] <= 1.05 and ext["ratio_mean"] <= 1.05  # the extensions reach the floor
-    assert (tmp_path / "rep" / "report.html").is_file()
+    assert (quick_benchmark / "rep" / "report.html").is_file()
 
 
 def test_benchmark_features_reference_the_training_data_for_every_model():

@@ -24,8 +24,8 @@ from golden import (ABS, FITNESS_REL, REL, SEED_SPREAD, TRAINED_REL, benchmark_d
 
 
 @pytest.fixture(scope="module")
-def outputs(tmp_path_factory):
-    return make_run_outputs(tmp_path_factory.mktemp("make_run"))
+def outputs(tmp_path_factory, quick_benchmark):
+    return make_run_outputs(tmp_path_factory.mktemp("make_run"), quick_benchmark)
 
 
 @pytest.mark.parametrize("name", ["paper", "test_design", "paper_numbers", "comb", "base", "after"])
