@@ -92,12 +92,17 @@ def make_run_outputs(tmp: Path, benchmark_dir: Path) -> dict[str, dict]:
     cli("paper", "--json", str(tmp / "paper_numbers.json"))
     cli("comb", "scenarios/paper_iis328dq.yaml", "--json", str(tmp / "comb.json"))
     cli("run", "scenarios/hidden_thermal_lag.yaml", "-o", str(tmp / "hidden.h5"), "-q")
-    cli("export", str(tmp / "hidden.h5"), "-o", str(tmp / "hidden.csv"))
+    cli("export", str(tmp / "hidden.h5"), "-o", str(tmp / "hidden.csv"), "--json", str(tmp / "export.json"))
     cli("compare", "scenarios/hidden_thermal_lag.yaml", str(tmp / "hidden.csv"), "--json", str(tmp / "base.json"))
     base = json.loads((tmp / "base.json").read_text())
     named = (base["selected"] + [c["effect"] for c in base["candidates"]])[0]
     cli("compare", "scenarios/hidden_thermal_lag.yaml", str(tmp / "hidden.csv"), "--json", str(tmp / "after.json"),
         "--with-effect", named)
+    from schemas import check_schema
+
+    for result, file in (("run", "paper"), ("test-design", "test_design"), ("comb", "comb"), ("export", "export"),
+                         ("paper", "paper_numbers")):
+        check_schema(json.loads((tmp / f"{file}.json").read_text()), result)
     names = ("paper", "test_design", "paper_numbers", "comb", "base", "after")
     return {**{n: _json(tmp / f"{n}.json") for n in names},
             "benchmark_quick": _json(benchmark_dir / "benchmark_quick.json")}

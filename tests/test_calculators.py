@@ -39,9 +39,9 @@ def test_air_density_ideal_gas():
 
 
 def test_report_labels_paper_and_physical_numbers():
-    items = {r["name"]: r for r in design_report()["items"]}
-    assert items["eq34_control_interval"]["value"] == pytest.approx(0.4375)
-    assert items["eq31_35_control_period"]["value"] == pytest.approx(29.32, abs=0.005)
-    assert items["eq31_35_control_period"]["kind"] == "paper-as-printed"
-    assert "s/m" in items["eq31_35_control_period"]["note"]
-    assert items["first_mode_time_constant"]["kind"] == "physical"
+    items = {r.name: r for r in design_report().items}
+    assert items["eq34_control_interval"].value == pytest.approx(0.4375)
+    assert items["eq31_35_control_period"].value == pytest.approx(29.32, abs=0.005)
+    assert items["eq31_35_control_period"].kind == "paper-as-printed"
+    assert "s/m" in items["eq31_35_control_period"].note
+    assert items["first_mode_time_constant"].kind == "physical"

@@ -53,8 +53,9 @@ def test_ulog_three_instances_to_px4_params_round_trip(ulog_cal, tmp_path):
     check_schema(doc, "calibration")  # the document follows the schema twin schema ships for it
     assert [i["instance"] for i in doc["imus"]] == [0, 1, 2]
     out = tmp_path / "tc.params"
-    r = run_cli("firmware", str(cal), "--format", "px4", "-o", str(out))
+    r = run_cli("firmware", str(cal), "--format", "px4", "-o", str(out), "--json", "-")
     assert r.returncode == 0, r.stderr
+    check_schema(json.loads(r.stdout), "firmware")
     values = read_px4_params(out).values
     for imu, entry in zip(read_imu_logs(log), doc["imus"]):
         assert values[f"TC_A{imu.instance}_ID"] == entry["device_id"]
@@ -96,6 +97,7 @@ def test_apply_compensates_a_new_log_and_refuses_another_imu(ulog_cal, tmp_path)
     r = run_cli("apply", str(cal), str(log), "--imu", "1", "-o", str(out), "--applied-g", "0,0,-1", "--json", "-")
     assert r.returncode == 0, r.stderr
     result = json.loads(r.stdout)
+    check_schema(result, "apply")
     assert all(result["residual_rms_mg"][a] < result["raw_rms_mg"][a] for a in "xyz")
     assert out.read_text().splitlines()[0].startswith("time_s,temperature_c,x_raw_g,x_compensated_g")
     other = json.loads(cal.read_text())

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, SCENARIOS, coarse_text, run_cli
+from schemas import check_schema
 from sim.drift import play_operator
 from twin.effects import REGISTRY, Composition, Contribution, Effect, EffectInputs, Parameter, get_effect
 from twin.effects.check import EffectCheckError, check_effect, conformance_inputs
@@ -229,6 +230,7 @@ def test_plugin_effect_from_a_scenario_is_simulated_and_listed(tmp_path):
     col = read_hdf5(tmp_path / "p.h5")["truth/effects/humidity_swelling_g"]
     assert col[-1] == pytest.approx(2e-3 * (1 - np.exp(-3000 / 20000)), rel=1e-9)  # end point included
     r = run_cli("effects", str(scn), "--json", "-")
+    check_schema(json.loads(r.stdout), "effects")
     listed = {e["name"]: e for e in json.loads(r.stdout)["effects"]}
     assert listed["humidity_swelling"]["family"] == "moisture"
     assert listed["humidity_swelling"]["parameters"][0]["unit"] == "mg"

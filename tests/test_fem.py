@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from schemas import check_schema
 from conftest import ROOT, run_cli
 
 from sim.fem.comb_on_substrate import (
@@ -199,6 +200,7 @@ def test_twin_package_cli_reports_tcoff_beside_the_datasheet(tmp_path):
     r = run_cli("package", "scenarios/package_fem.yaml", "--json", str(out))
     assert r.returncode == 0, r.stderr
     res = json.loads(out.read_text())
+    check_schema(res, "package")
     assert res["datasheet"]["tcoff_mg_per_c"] == 0.8 and res["mesh"]["dofs"] > 1000
     by_material = sum(res["tcoff_by_material_mg_per_c"].values())
     assert by_material == pytest.approx(res["tcoff_mg_per_c"], rel=0.02)  # small-signal: the split adds up

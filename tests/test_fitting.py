@@ -153,7 +153,10 @@ def test_polynomial_picks_order_by_validation():
 def test_twin_benchmark_quick_json(quick_benchmark):
     import json
 
+    from schemas import check_schema
+
     b = json.loads((quick_benchmark / "benchmark_quick.json").read_text())
+    check_schema(b, "benchmark")
     assert b["noise_floor_mse"] > 0
     models = {row["model"] for row in b["table1"]}
     assert {"conventional", "model1", "model2_ga", "model3_psoga", "polynomial_T", "extension_bpnn_dTdt",

@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 from conftest import ROOT, run_cli
+from schemas import check_schema
 from twin.errors import ScenarioError
 from twin.model.dataset import read_hdf5
 from twin.model.scenario import parse_scenario
@@ -59,6 +60,7 @@ def test_generic_has_no_figures_and_takes_them_all_from_the_scenario():
 def test_cli_parts_json_lists_the_figures_with_verified_flags():
     r = run_cli("parts", "--json", "-")
     assert r.returncode == 0, r.stderr
+    check_schema(json.loads(r.stdout), "parts")
     parts = {p["name"]: p for p in json.loads(r.stdout)["parts"]}
     assert set(parts) >= {"IIS328DQ", "generic"}
     figures = {f["name"]: f for f in parts["IIS328DQ"]["figures"]}

@@ -1,8 +1,10 @@
 """Off-screen rendering works headless: not blank, temperature-dependent, right frame count."""
 
+import json
 import numpy as np
 import pytest
 
+from schemas import check_schema
 from conftest import run_cli
 
 iio = pytest.importorskip("imageio.v3")
@@ -35,6 +37,7 @@ def test_sweep_gif_has_requested_frames(tmp_path):
     r = run_cli("render", "scenarios/paper_iis328dq.yaml", "--sweep", "-20:50:35", "-o", str(tmp_path / "s.gif"),
                 "--json", "-")
     assert r.returncode == 0, r.stderr
+    check_schema(json.loads(r.stdout), "render")
     frames = iio.imread(tmp_path / "s.gif", index=None)
     assert frames.shape[0] == 3  # -20, 15, 50
     assert not np.array_equal(frames[0], frames[-1])

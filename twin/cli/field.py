@@ -244,6 +244,7 @@ def firmware(
         ``--json``: where the result goes (``-``: stdout).
     """
     from twin.calibration.deploy import export_calibration, read_calibration
+    from twin.calibration.field_result import FirmwareResult
 
     with guard(inputs=[calibration], outputs=_outputs(output, json_out)):
         _distinct(output, json_out)
@@ -252,15 +253,15 @@ def firmware(
         doc = read_calibration(calibration)
         written = export_calibration(doc, fmt, output, method=method, instance=imu, sample_rate_hz=sample_rate_hz,
                                      device_id=device_id, gyro_device_id=gyro_device_id, force=force)
-    result = {"output": str(output), "format": fmt, "method": written.methods[0] if len(set(written.methods)) == 1
-              else list(written.methods), "imu": imu, "lines": written.lines, "notes": list(written.notes)}
+    result = FirmwareResult(output=str(output), format=fmt, method=written.methods[0] if len(set(written.methods)) == 1
+                            else tuple(written.methods), imu=imu, lines=written.lines, notes=tuple(written.notes))
     if json_out != "-":
         checked = ", read back and checked as the ground station loads it" if fmt in ("px4", "ardupilot") else ""
         typer.echo(f"wrote {output} ({fmt}, {written.lines} lines{checked})")
         for note in written.notes:
             typer.echo(f"  {note}")
     with guard():
-        emit_json(result, json_out)
+        emit_json(result.to_json(), json_out)
 
 
 @app.command()
@@ -299,12 +300,16 @@ def apply(
     json_out : str, optional
         ``--json``: where the result goes (``-``: stdout).
     """
+    import dataclasses
+
     import numpy as np
 
     from twin.calibration.deploy import correction_g, imu_entry, method_entry, read_calibration
+    from twin.calibration.field_result import ApplyResult
     from twin.diagnosis.axes import APPLIED_TOLERANCE_G
     from twin.io import atomic_write_text
     from twin.measurement import ColumnMap, read_imu_logs
+    from twin.results import PerAxis
 
     with guard(inputs=[calibration, log] + ([columns] if columns else []), outputs=_outputs(output, json_out)):
         _distinct(output, json_out)
@@ -319,8 +324,8 @@ def apply(
         corrected = imu_log.accel_g - correction_g(data, imu_log.time_s, imu_log.temperature_c)
         span = entry["temperature_span_c"]
         outside = float(np.mean((imu_log.temperature_c < span[0]) | (imu_log.temperature_c > span[1])))
-        result = {"output": str(output), "method": name, "instance": imu_log.instance, "rows": len(imu_log),
-                  "extrapolated_fraction": outside}
+        result = ApplyResult(output=str(output), method=name, instance=imu_log.instance, rows=len(imu_log),
+                             extrapolated_fraction=outside)
         if applied_g is not None:
             try:
                 truth = [float(v) for v in applied_g.split(",")]
@@ -336,8 +341,8 @@ def apply(
                                 f"there (median; tolerance {APPLIED_TOLERANCE_G:g} g); give the orientation it was in")
             res = corrected - np.asarray(truth) - offset
             raw = imu_log.accel_g - np.median(imu_log.accel_g, axis=0)
-            result["residual_rms_mg"] = dict(zip("xyz", map(float, np.sqrt(np.mean(res ** 2, axis=0)) * 1e3)))
-            result["raw_rms_mg"] = dict(zip("xyz", map(float, np.sqrt(np.mean(raw ** 2, axis=0)) * 1e3)))
+            result = dataclasses.replace(result, residual_rms_mg=PerAxis.of(map(float, np.sqrt(np.mean(res ** 2, axis=0)) * 1e3)),
+                                         raw_rms_mg=PerAxis.of(map(float, np.sqrt(np.mean(raw ** 2, axis=0)) * 1e3)))
         header = "time_s,temperature_c," + ",".join(f"{a}_raw_g,{a}_compensated_g" for a in "xyz")
         table = np.column_stack([imu_log.time_s, imu_log.temperature_c] +
                                 [c for i in range(3) for c in (imu_log.accel_g[:, i], corrected[:, i])])
@@ -345,10 +350,11 @@ def apply(
     if json_out != "-":
         typer.echo(f"wrote {output}: {len(imu_log)} rows compensated with {name}"
                    + (f"; {100 * outside:.0f} % of the log outside the calibrated range (extrapolated)" if outside else ""))
-        if "residual_rms_mg" in result:
+        if result.residual_rms_mg is not None and result.raw_rms_mg is not None:
+            raw_rms, res_rms = result.raw_rms_mg, result.residual_rms_mg
             typer.echo("  RMS about the applied g [mg] x / y / z: raw "
-                       + " / ".join(f"{v:.2f}" for v in result["raw_rms_mg"].values()) + ", compensated "
-                       + " / ".join(f"{v:.2f}" for v in result["residual_rms_mg"].values()))
+                       + " / ".join(f"{v:.2f}" for v in (raw_rms.x, raw_rms.y, raw_rms.z)) + ", compensated "
+                       + " / ".join(f"{v:.2f}" for v in (res_rms.x, res_rms.y, res_rms.z)))
     with guard():
-        emit_json(result, json_out)
+        emit_json(result.to_json(), json_out)
     sys.stdout.flush()

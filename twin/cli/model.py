@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import json
 import math
@@ -13,6 +14,7 @@ import typer
 
 from twin.cli.common import JsonOpt, app, check_outputs, emit_json, fail, guard
 from twin.errors import TwinError
+from twin.results import to_json
 
 
 @app.command()
@@ -68,21 +70,21 @@ def run(
         fail(f"cannot write {out}: {exc.strerror or exc}")
     except MemoryError:
         fail(f"{scenario}: out of memory while simulating; shorten the program or lower test_plan.logger_rate_hz")
-    result = {"output": str(out), **summary(ds)}
+    result = dataclasses.replace(summary(ds), output=str(out))
     if not quiet and json_out != "-":
         typer.echo(
-            f"wrote {out}: {result['samples']} samples, {result['duration_h']:.2f} h, die "
-            f"{result['die_range_c'][0]:.1f}..{result['die_range_c'][1]:.1f} °C, drift "
-            f"{result['drift_range_mg'][0]:.2f}..{result['drift_range_mg'][1]:.2f} mg, white noise "
-            f"{result['white_noise_sigma_mg']:.3f} mg"
+            f"wrote {out}: {result.samples} samples, {result.duration_h:.2f} h, die "
+            f"{result.die_range_c[0]:.1f}..{result.die_range_c[1]:.1f} °C, drift "
+            f"{result.drift_range_mg[0]:.2f}..{result.drift_range_mg[1]:.2f} mg, white noise "
+            f"{result.white_noise_sigma_mg:.3f} mg"
         )
-    emit_json(result, json_out)
+    emit_json(to_json(result), json_out)
 
 
 @app.command()
 def schema(
     output: Annotated[Optional[Path], typer.Option("-o", "--output", help="write the schema here")] = None,
-    result: Annotated[Optional[str], typer.Option("--result", help="instead of scenario files: the schema of a command's --json (compare, fleet, fleet-simulate, doe, calibration)")] = None,
+    result: Annotated[Optional[str], typer.Option("--result", help="instead of scenario files: the schema of a command's --json, by its name (compare, calibration, fleet, run, …; an unknown name lists them all)")] = None,
     json_out: JsonOpt = None,
 ) -> None:
     """Print the JSON Schema of scenario files (for editors), or with --result of a command's --json output.
@@ -152,9 +154,9 @@ def test_design(
     from twin.parts import design_figures
     rows = design_report(*design_figures(lsb_mg, tcoff_mg_per_c), tcso_pct_per_c, chamber_length_m)
     if json_out != "-":
-        for row in rows["items"]:
-            typer.echo(f"{row['name']:<44} {row['value']:>12.6g} {row['unit']:<8} {row['note']}")
-    emit_json(rows, json_out)
+        for row in rows.items:
+            typer.echo(f"{row.name:<44} {row.value:>12.6g} {row.unit:<8} {row.note}")
+    emit_json(to_json(rows), json_out)
 
 
 @app.command()
@@ -175,12 +177,12 @@ def paper(json_out: JsonOpt = None) -> None:
 
     report = paper_report()
     if json_out != "-":
-        for it in report["items"]:
-            printed = "-" if it["paper"] is None else f"{it['paper']:.6g}" if isinstance(it["paper"], float) else str(it["paper"])
-            computed = f"{it['computed']:.6g}" if isinstance(it["computed"], float) else str(it["computed"])
-            typer.echo(f"{it['item']:<34} paper {printed:>10}  code {computed:>12} {it['unit']:<8} {it['verdict']}")
-        typer.echo(f"{report['reproduced']} reproduced, {report['differs']} differ, {report['computed']} computed (not in the paper)")
-    emit_json(report, json_out)
+        for it in report.items:
+            printed = "-" if it.paper is None else f"{it.paper:.6g}" if isinstance(it.paper, float) else str(it.paper)
+            computed = f"{it.computed:.6g}" if isinstance(it.computed, float) else str(it.computed)
+            typer.echo(f"{it.item:<34} paper {printed:>10}  code {computed:>12} {it.unit:<8} {it.verdict}")
+        typer.echo(f"{report.reproduced} reproduced, {report.differs} differ, {report.computed} computed (not in the paper)")
+    emit_json(to_json(report), json_out)
 
 
 @app.command()
@@ -221,14 +223,14 @@ def comb(
     except (TwinError, ValueError) as exc:
         fail(str(exc))
     if json_out != "-":
-        typer.echo(f"comb cell: C2 = {report['C2_fF']:.3f} fF, C1 = {report['C1_fF']:.3f} fF, "
-                   f"signal {report['signal_fF_per_g']:.4f} fF/g, du(1 g) = {report['du_1g_nm']:.1f} nm")
-        for r in report["readings"]:
-            typer.echo(f"  {r['reading']:<3} slope {r['slope_mg_per_c']:+.5f} mg/°C at {acceleration_g:g} g, "
-                       f"ends {r['drift_low_mg']:+.4f} / {r['drift_high_mg']:+.4f} mg, max offset {r['max_offset_mg']:.2g} mg  "
-                       f"({r['meaning']})")
+        typer.echo(f"comb cell: C2 = {report.C2_fF:.3f} fF, C1 = {report.C1_fF:.3f} fF, "
+                   f"signal {report.signal_fF_per_g:.4f} fF/g, du(1 g) = {report.du_1g_nm:.1f} nm")
+        for r in report.readings:
+            typer.echo(f"  {r.reading:<3} slope {r.slope_mg_per_c:+.5f} mg/°C at {acceleration_g:g} g, "
+                       f"ends {r.drift_low_mg:+.4f} / {r.drift_high_mg:+.4f} mg, max offset {r.max_offset_mg:.2g} mg  "
+                       f"({r.meaning})")
         typer.echo(f"  for scale: {loaded.part.tempco_text(acceleration_g)}")
-    emit_json(report, json_out)
+    emit_json(to_json(report), json_out)
 
 
 @app.command()
@@ -305,18 +307,21 @@ def render(
         if temps is None:
             rd.render_png(geometry, temperature, output, exaggeration=exaggeration, acceleration_g=acceleration_g,
                           reading=reading)
-            result = {"output": str(output), "temperatures_c": [temperature], "frames": 1}
+            temps_c = [temperature]
         else:
             with tqdm(total=len(temps), desc="render", unit="frame", leave=False, file=sys.stderr, disable=None) as bar:
                 rd.render_sweep(geometry, temps, output, exaggeration=exaggeration, acceleration_g=acceleration_g,
                                 reading=reading, progress=lambda t: bar.update(1))
-            result = {"output": str(output), "temperatures_c": [float(t) for t in temps], "frames": len(temps)}
+            temps_c = [float(t) for t in temps]
     except OSError as exc:
         fail(f"cannot write {output}: {exc.strerror or exc}")
-    result.update(exaggeration=exaggeration, reading=reading, acceleration_g=acceleration_g)
+    from twin.reporting.results import RenderResult
+
+    result = RenderResult(output=str(output), temperatures_c=temps_c, frames=len(temps_c), exaggeration=exaggeration,
+                          reading=reading, acceleration_g=acceleration_g)
     if json_out != "-":
-        typer.echo(f"wrote {output} ({result['frames']} frame{'s' if result['frames'] > 1 else ''})")
-    emit_json(result, json_out)
+        typer.echo(f"wrote {output} ({result.frames} frame{'s' if result.frames > 1 else ''})")
+    emit_json(to_json(result), json_out)
 
 
 def _render_fem(loaded, output: Path, temperature: float, temps, exaggeration: float, json_out) -> None:
@@ -335,8 +340,8 @@ def _render_fem(loaded, output: Path, temperature: float, temps, exaggeration: f
     except OSError as exc:
         fail(f"cannot write {output}: {exc.strerror or exc}")
     if json_out != "-":
-        typer.echo(f"wrote {output} ({result['frames']} frame(s), finite-element field, ×{exaggeration:g})")
-    emit_json(result, json_out)
+        typer.echo(f"wrote {output} ({result.frames} frame(s), finite-element field, ×{exaggeration:g})")
+    emit_json(to_json(result), json_out)
 
 
 @app.command()
@@ -358,6 +363,7 @@ def effects(
         ``--json``: where the result goes (``-``: stdout).
     """
     from twin.effects import REGISTRY, load_plugin
+    from twin.effects.records import EffectsListing
 
     try:
         if scenario is not None:
@@ -371,11 +377,11 @@ def effects(
     table = [REGISTRY[name].describe() for name in sorted(REGISTRY, key=lambda n: (REGISTRY[n].family, n))]
     if json_out != "-":
         for e in table:
-            params = ", ".join(f"{p['name']} [{p['unit']}] {p['default']:g} in [{p['bounds'][0]:g}, {p['bounds'][1]:g}]"
-                               f"{' (' + p['role'] + ')' if p['role'] != 'amplitude' else '' if p['free'] else ' (not fitted by default)'}"
-                               for p in e["parameters"])
-            typer.echo(f"{e['name']:<20} {e['family']:<13} {params or '-'}")
-    emit_json({"effects": table}, json_out)
+            params = ", ".join(f"{p.name} [{p.unit}] {p.default:g} in [{p.bounds[0]:g}, {p.bounds[1]:g}]"
+                               f"{' (' + p.role + ')' if p.role != 'amplitude' else '' if p.free else ' (not fitted by default)'}"
+                               for p in e.parameters)
+            typer.echo(f"{e.name:<20} {e.family:<13} {params or '-'}")
+    emit_json(to_json(EffectsListing(effects=table)), json_out)
 
 
 @app.command()
@@ -391,6 +397,7 @@ def parts(part: Annotated[Optional[list[str]], typer.Argument(help="part names o
         ``--json``: where the result goes (``-``: stdout).
     """
     from twin.parts import PARTS, load_part, table_lines
+    from twin.parts.records import PartsListing
 
     try:
         check_outputs([p for p in part or [] if Path(p).exists()], [None if json_out == "-" else json_out])
@@ -399,7 +406,7 @@ def parts(part: Annotated[Optional[list[str]], typer.Argument(help="part names o
         fail(str(exc))
     if json_out != "-":
         typer.echo("\n".join(table_lines(chosen)))
-    emit_json({"parts": [p.describe() for p in chosen]}, json_out)
+    emit_json(to_json(PartsListing(parts=[p.describe() for p in chosen])), json_out)
 
 
 @app.command()
@@ -429,7 +436,9 @@ def export(
         write_canonical_csv(output, m.time_s, m.temperature_c, m.output_g, m.applied_g, m.run_index, m.power_on)
     except TwinError as exc:
         fail(str(exc))
-    result = {"output": str(output), "rows": len(m), "runs": m.runs}
+    from twin.reporting.results import ExportResult
+
+    result = ExportResult(output=str(output), rows=len(m), runs=m.runs)
     if json_out != "-":
         typer.echo(f"wrote {output}: {len(m)} rows, {m.runs} run(s)")
-    emit_json(result, json_out)
+    emit_json(to_json(result), json_out)

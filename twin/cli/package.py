@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
 from twin.cli.common import JsonOpt, app, emit_json, guard
+from twin.results import to_json
 
 
 @app.command()
@@ -33,8 +35,7 @@ def package(
     with guard(inputs=[scenario], outputs=[None if json_out in (None, "-") else json_out]):
         loaded = load_scenario(scenario)
         effect, source = package_effect(loaded)
-        result = package_prediction(effect, loaded.part)
-    result["effect_source"] = source
+        result = dataclasses.replace(package_prediction(effect, loaded.part), effect_source=source)
     if json_out != "-":
         typer.echo("\n".join(text_lines(result, source)))
-    emit_json(result, json_out)
+    emit_json(to_json(result), json_out)

@@ -44,6 +44,8 @@ def benchmark(
     ----------
     Qi et al. (2022), Micromachines 13, 2156: Tables 1 and 2, eqs. (45) and (47).
     """
+    from dataclasses import replace
+
     from tqdm import tqdm
 
     from twin.compensation.benchmark import optimizer_benchmark, run_benchmark
@@ -61,7 +63,7 @@ def benchmark(
 
             result = run_benchmark(loaded, seeds=seeds, quick=quick, progress=tick)
             bar.set_description("optimisers on eq. (45)")
-            result["optimizers"] = optimizer_benchmark(20)
+            result = replace(result, optimizers=optimizer_benchmark(20))
         if report is not None:
             from twin.compensation.report import write_benchmark_report
 
@@ -71,16 +73,16 @@ def benchmark(
     except OSError as exc:
         fail(f"{exc.filename or report}: {exc.strerror or exc}")
     if json_out != "-":
-        typer.echo(f"Table 1: MSE of the compensated output [g²] on Tests 1..{seeds} (noise floor {result['noise_floor_mse']:.3e})")
-        for row in result["table1"]:
-            q = "" if "Q_percent" not in row else "  Q " + " ".join(f"{v:5.2f}%" for v in row["Q_percent"])
-            typer.echo(f"  {row['model']:<22}" + " ".join(f"{v:.3e}" for v in row["mse"]) +
-                       f"  ×floor {row['ratio_mean']:.3f}{q}")
-        for v in result["verdicts"]:
+        typer.echo(f"Table 1: MSE of the compensated output [g²] on Tests 1..{seeds} (noise floor {result.noise_floor_mse:.3e})")
+        for row in result.table1:
+            q = "" if row.Q_percent is None else "  Q " + " ".join(f"{v:5.2f}%" for v in row.Q_percent)
+            typer.echo(f"  {row.model:<22}" + " ".join(f"{v:.3e}" for v in row.mse) +
+                       f"  ×floor {row.ratio_mean:.3f}{q}")
+        for v in result.verdicts:
             typer.echo(f"  - {v}")
         if report is not None:
             typer.echo(f"report: {report / 'report.html'}")
-    emit_json(result, json_out)
+    emit_json(result.to_json(), json_out)
 
 
 @app.command()

@@ -21,6 +21,8 @@ import yaml
 
 from fitting import EvolvedBPNN
 from fitting.optimizers import EQ45_BOUNDS, EQ45_MINIMUM, GA, PSO, PSOGA, eq45
+from twin.compensation.benchmark_result import (BenchmarkResult, FitTime, MeanStd, OptimizerEntry, OptimizerRun,
+                                                SearchConvergence, Table1Row)
 from twin.compensation.physics_twin import twin_compensation
 from twin.compensation.registry import COMPENSATORS, Compensator
 from twin.compensation.splits import last_cycle_test, subset
@@ -139,7 +141,7 @@ def _check_split(name: str, train, test, loaded: LoadedScenario, what: str) -> N
                              f"{int(train.sum())} training and {int(test.sum())} test samples")
 
 
-def optimizer_benchmark(seeds: int = 20) -> dict:
+def optimizer_benchmark(seeds: int = 20) -> dict[str, OptimizerEntry]:
     """Iterations and evaluations to |z − z*| < 1e-6 on eq. (45) (median and IQR over seeds).
 
     GA (real-valued, and the paper's binary encoding of eq. (39)), PSO and PSO-GA; population 50,
@@ -152,9 +154,9 @@ def optimizer_benchmark(seeds: int = 20) -> dict:
 
     Returns
     -------
-    dict
-        Optimiser → ``seeds``, ``reached`` (seeds that reached z*), ``iterations_q25_median_q75``
-        and ``evaluations_q25_median_q75`` (None when no seed reached it); ``paper`` (the paper's
+    dict of str to OptimizerEntry
+        Optimiser → :class:`OptimizerRun` (``seeds``, ``reached``: seeds that reached z*,
+        ``iterations_q25_median_q75`` and ``evaluations_q25_median_q75``: None when no seed reached it); ``paper`` (the paper's
         iteration counts) and ``z_star`` (the minimum, ``EQ45_MINIMUM`` [1]).
 
     References
@@ -171,14 +173,14 @@ def optimizer_benchmark(seeds: int = 20) -> dict:
             if ok:
                 its.append(o.n_iter_)
                 evals.append(o.n_evaluations_)
-        q = lambda v: [float(np.percentile(v, 25)), float(np.median(v)), float(np.percentile(v, 75))] if v else None  # noqa: E731
-        out[name] = {"seeds": seeds, "reached": hits, "iterations_q25_median_q75": q(its), "evaluations_q25_median_q75": q(evals)}
+        q = lambda v: (float(np.percentile(v, 25)), float(np.median(v)), float(np.percentile(v, 75))) if v else None  # noqa: E731
+        out[name] = OptimizerRun(seeds, hits, q(its), q(evals))
     out["paper"] = {"GA_iterations": 27, "PSO-GA_iterations": 3}
     out["z_star"] = EQ45_MINIMUM
     return out
 
 
-def run_benchmark(loaded: LoadedScenario, seeds: int = 3, quick: bool = False, progress=None) -> dict:
+def run_benchmark(loaded: LoadedScenario, seeds: int = 3, quick: bool = False, progress=None) -> BenchmarkResult:
     """Tests 1..``seeds``, the extrapolation and the ramp-rate split (on Test 1's device); raises
     :class:`BenchmarkError` when the scenario cannot be split that way.
 
@@ -195,7 +197,7 @@ def run_benchmark(loaded: LoadedScenario, seeds: int = 3, quick: bool = False, p
 
     Returns
     -------
-    dict
+    BenchmarkResult
         ``twin benchmark --json`` (without ``optimizers``): ``table1`` (per compensator the test
         MSEs [g²], their mean and standard deviation, the ratio to the noise floor [1] and, but for
         the conventional model, Q [%] and whether it improves on it), ``table2`` (MSE [g²] at
@@ -239,28 +241,28 @@ def run_benchmark(loaded: LoadedScenario, seeds: int = 3, quick: bool = False, p
     return _tables(tests, table2, extrap, ramp, timings, quick)
 
 
-def _tables(tests, table2, extrap, ramp, timings, quick) -> dict:
+def _tables(tests, table2, extrap, ramp, timings, quick) -> BenchmarkResult:
     models = [k for k in tests[0] if k != "noise_floor"]
     rows = []
     for name in models:
         mse = [t[name] for t in tests]
         ratio = [t[name] / t["noise_floor"] for t in tests]
-        row = {"model": name, "mse": mse, "mse_mean": float(np.mean(mse)), "mse_std": float(np.std(mse)),
-               "ratio_to_noise_floor": ratio, "ratio_mean": float(np.mean(ratio))}
+        q_percent = improves = None
         if name != "conventional":
-            row["Q_percent"] = [abs(t[name] - t["conventional"]) / t["conventional"] * 100 for t in tests]
-            row["improves_on_conventional"] = [t[name] < t["conventional"] for t in tests]
-        rows.append(row)
+            q_percent = tuple(abs(t[name] - t["conventional"]) / t["conventional"] * 100 for t in tests)
+            improves = tuple(t[name] < t["conventional"] for t in tests)
+        rows.append(Table1Row(name, tuple(mse), float(np.mean(mse)), float(np.std(mse)), tuple(ratio),
+                              float(np.mean(ratio)), q_percent, improves))
     t2 = {}
     for name, runs in table2.items():
         per_it = {}
         for it in TABLE2_ITERATIONS:
             vals = [r["mse_g2_by_iteration"][min(it, len(r["mse_g2_by_iteration"]) - 1)] for r in runs]
-            per_it[str(it)] = {"mean": float(np.mean(vals)), "std": float(np.std(vals))}
-        t2[name] = {"mse_g2_at_iteration": per_it, "fitness_evaluations": [r["fitness_evaluations"] for r in runs],
-                    "bp_iterations": [r["bp_iterations"] for r in runs],
-                    "iterations_run": [len(r["mse_g2_by_iteration"]) - 1 for r in runs]}
-    mean = {r["model"]: r["mse_mean"] for r in rows}
+            per_it[str(it)] = MeanStd(float(np.mean(vals)), float(np.std(vals)))
+        t2[name] = SearchConvergence(per_it, tuple(r["fitness_evaluations"] for r in runs),
+                                     tuple(r["bp_iterations"] for r in runs),
+                                     tuple(len(r["mse_g2_by_iteration"]) - 1 for r in runs))
+    mean = {r.model: r.mse_mean for r in rows}
     floor = float(np.mean([t["noise_floor"] for t in tests]))
     verdicts = [
         verdict("model3_psoga", "model2_ga", mean, "PSO-GA-BPNN", "GA-BPNN"),
@@ -271,18 +273,13 @@ def _tables(tests, table2, extrap, ramp, timings, quick) -> dict:
         f"Noise floor {floor:.3e} g²: extension at {mean['extension_bpnn_dTdt'] / floor:.3f}×, physics twin at "
         f"{mean['physics_twin'] / floor:.3f}×, PSO-GA-BPNN at {mean['model3_psoga'] / floor:.3f}× the floor.",
     ]
-    return {
-        "quick": quick,
-        "tests": len(tests),
-        "noise_floor_mse": floor,
-        "noise_floor_mse_per_test": [t["noise_floor"] for t in tests],
-        "table1": rows,
-        "table2": t2,
-        "extrapolation_split": extrap[0] if extrap else None,
-        "ramp_rate_split": ramp[0] if ramp else None,
-        "verdicts": verdicts,
-        "timings_s": timings,
-    }
+    return BenchmarkResult(
+        quick=quick, tests=len(tests), noise_floor_mse=floor,
+        noise_floor_mse_per_test=tuple(t["noise_floor"] for t in tests), table1=tuple(rows), table2=t2,
+        extrapolation_split=extrap[0] if extrap else None, ramp_rate_split=ramp[0] if ramp else None,
+        verdicts=tuple(verdicts),
+        timings_s={test: {name: FitTime(**t) for name, t in per.items()} for test, per in timings.items()},
+    )
 
 
 #: relative MSE difference below which two compensators are called level, not one beating the other

@@ -29,6 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from twin.arrays import run_slices
+from twin.effects.records import EffectRecord, ParameterRecord
 from twin.errors import ModelError
 from twin.text import did_you_mean
 
@@ -365,26 +366,26 @@ class Effect:
         return 0.0
 
     @classmethod
-    def describe(cls) -> dict:
-        """Registry entry as plain data (for ``twin effects`` and the docs).
+    def describe(cls) -> EffectRecord:
+        """Registry entry as a typed record (for ``twin effects`` and the docs).
 
         Returns
         -------
-        dict
+        EffectRecord
             Name, family, slot, description, inputs read, identifiability, module, and each
             parameter's name, unit, default, bounds [its unit], role, freedom and source.
         """
-        return {
-            "name": cls.name,
-            "family": cls.family,
-            "slot": cls.slot,
-            "description": cls.description,
-            "reads": list(cls.reads),
-            "identifiable": cls.identifiable,
-            "module": cls.__module__,
-            "parameters": [
-                {"name": p.name, "unit": p.unit, "default": p.default, "bounds": list(p.bounds), "role": p.role,
-                 "free": p.free, "source": p.source, **({"grid": list(p.grid)} if p.grid else {})}
+        return EffectRecord(
+            name=cls.name,
+            family=cls.family,
+            slot=cls.slot,
+            description=cls.description,
+            reads=list(cls.reads),
+            identifiable=cls.identifiable,
+            module=cls.__module__,
+            parameters=[
+                ParameterRecord(name=p.name, unit=p.unit, default=p.default, bounds=list(p.bounds), role=p.role,
+                                free=p.free, source=p.source, grid=list(p.grid) if p.grid else None)
                 for p in cls.parameters
             ],
-        }
+        )

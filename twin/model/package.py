@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from twin.errors import ModelError
+from twin.model.results import PackagePrediction
 
 SWEEP_C = np.arange(-40.0, 85.0 + 1e-9, 5.0)  # the datasheet's TCOff range, −40…85 °C (excursion from 25 °C)
 WARPAGE_AT_C = (-40.0, 25.0, 85.0)
@@ -71,7 +72,7 @@ def solve_checked(effect):
     return sol
 
 
-def package_prediction(effect, part=None) -> dict:
+def package_prediction(effect, part=None) -> PackagePrediction:
     """Warpage, curvature, TCOff [mg/°C], TCSo [ppm/°C] (least-squares slope over −40…85 °C and the
     largest excursion from the reference), the TCOff split by material, and the datasheet figures.
 
@@ -85,7 +86,7 @@ def package_prediction(effect, part=None) -> dict:
 
     Returns
     -------
-    dict
+    PackagePrediction
         ``twin package --json``: design, mesh, warpage [µm] and curvature [1/m] at −40, 25 and 85 °C,
         TCOff [mg/°C], TCSo [ppm/°C], their split by material, and the sweep.
     """
@@ -101,28 +102,30 @@ def package_prediction(effect, part=None) -> dict:
         raise ModelError(f"package_fem: {exc}") from None
     k_off, k_sf = effect.values["bias_scale"], effect.values["scale_factor_scale"]
     offset, sf = drift.offset_mg * k_off, drift.scale_factor_ppm * k_sf
-    datasheet = {"tcoff_mg_per_c": 0.8, "tcso_ppm_per_c": 100.0,
-                 "source": "IIS328DQ DS10757 Rev 4 Table 2 (typ ±, no min/max)"}
+    from twin.model.results import DatasheetDrift, PackageMesh, PackageSweep, Warpage
+
+    tcoff_ds, tcso_ds = 0.8, 100.0
     if part is not None:
-        datasheet["tcoff_mg_per_c"] = float(part.value("tcoff_mg_per_c"))
-        datasheet["tcso_ppm_per_c"] = float(part.value("tcso_pct_per_c")) * 1e4
+        tcoff_ds = float(part.value("tcoff_mg_per_c"))
+        tcso_ds = float(part.value("tcso_pct_per_c")) * 1e4
+    datasheet = DatasheetDrift(tcoff_ds, tcso_ds, "IIS328DQ DS10757 Rev 4 Table 2 (typ ±, no min/max)")
     tcoff = slope_per_c(SWEEP_C, offset)
-    return {
-        "design": {k: v for k, v in effect.values.items()},
-        "mesh": {"elements": sol.n_elements, "dofs": sol.n_dofs, "element": "Q2 (9-node quadrilateral)",
-                 "kinematics": sol.design.kinematics},
-        "warpage": [{"temperature_c": float(t), "die_bow_um": float(w), "curvature_per_m": float(c)}
-                    for t, c, w in zip(surf.temperature_c, surf.curvature_per_m, surf.warpage_um)],
-        "curvature_per_m_per_k": slope_per_c(surf.temperature_c, surf.curvature_per_m),
-        "tcoff_mg_per_c": tcoff,
-        "tcoff_excursion_mg_per_c": _excursion_per_c(SWEEP_C, offset, ref),
-        "tcso_ppm_per_c": slope_per_c(SWEEP_C, sf),
-        "tcso_excursion_ppm_per_c": _excursion_per_c(SWEEP_C, sf, ref),
-        "tcoff_by_material_mg_per_c": {m: slope_per_c(SWEEP_C, v * k_off) for m, v in drift.offset_by_material_mg.items()},
-        "delta_pm_per_k": slope_per_c(SWEEP_C, drift.delta_pm * k_off),
-        "anchor_motion_pm_per_k": {k: slope_per_c(SWEEP_C, v) for k, v in drift.motion_pm.items()},
-        "gap_change_pm_per_k": {k: slope_per_c(SWEEP_C, v) for k, v in drift.gap_change_pm.items()},
-        "anchors_um": effect.layout().positions_um(),
-        "datasheet": datasheet,
-        "sweep": {"temperature_c": SWEEP_C.tolist(), "offset_mg": offset.tolist(), "scale_factor_ppm": sf.tolist()},
-    }
+    return PackagePrediction(
+        design={k: v for k, v in effect.values.items()},
+        mesh=PackageMesh(elements=sol.n_elements, dofs=sol.n_dofs, element="Q2 (9-node quadrilateral)",
+                         kinematics=sol.design.kinematics),
+        warpage=[Warpage(temperature_c=float(t), die_bow_um=float(w), curvature_per_m=float(c))
+                 for t, c, w in zip(surf.temperature_c, surf.curvature_per_m, surf.warpage_um)],
+        curvature_per_m_per_k=slope_per_c(surf.temperature_c, surf.curvature_per_m),
+        tcoff_mg_per_c=tcoff,
+        tcoff_excursion_mg_per_c=_excursion_per_c(SWEEP_C, offset, ref),
+        tcso_ppm_per_c=slope_per_c(SWEEP_C, sf),
+        tcso_excursion_ppm_per_c=_excursion_per_c(SWEEP_C, sf, ref),
+        tcoff_by_material_mg_per_c={m: slope_per_c(SWEEP_C, v * k_off) for m, v in drift.offset_by_material_mg.items()},
+        delta_pm_per_k=slope_per_c(SWEEP_C, drift.delta_pm * k_off),
+        anchor_motion_pm_per_k={k: slope_per_c(SWEEP_C, v) for k, v in drift.motion_pm.items()},
+        gap_change_pm_per_k={k: slope_per_c(SWEEP_C, v) for k, v in drift.gap_change_pm.items()},
+        anchors_um=effect.layout().positions_um(),
+        datasheet=datasheet,
+        sweep=PackageSweep(temperature_c=SWEEP_C.tolist(), offset_mg=offset.tolist(), scale_factor_ppm=sf.tolist()),
+    )

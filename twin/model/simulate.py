@@ -24,6 +24,7 @@ from twin.effects import EffectInputs
 from twin.errors import ScenarioError
 from twin.model import axes
 from twin.model.dataset import LAYOUT, LAYOUT_VERSION, Dataset
+from twin.model.results import RunSummary
 from twin.model.scenario import LoadedScenario
 
 STAGES = ("program", "thermal chain", "effects", "sensor")
@@ -296,9 +297,9 @@ def simulate(
     return ds
 
 
-def summary(ds: Dataset) -> dict:
+def summary(ds: Dataset) -> RunSummary:
     """Machine-readable summary of a simulated dataset (``twin run --json``); over all axes of a
-    three-axis dataset (its ``axes`` key lists them).
+    three-axis dataset (its ``axes`` field lists them).
 
     Parameters
     ----------
@@ -307,33 +308,25 @@ def summary(ds: Dataset) -> dict:
 
     Returns
     -------
-    dict
+    RunSummary
         Samples, duration [h], seed, runs, effects, set-point and die ranges [°C], die minus
         thermometer [°C], drift range [mg], white-noise σ [mg], output RMS minus truth [mg] and
         saturated samples.
     """
     t = ds["time_s"]
-    if axes.is_three_axis(ds):
-        die, thermo = ds["temperature/die_c"], ds["temperature/thermometer_c"]
-        return {"samples": len(ds), "duration_h": float(t[-1] - t[0]) / 3600.0 if t.size else 0.0,
-                "seed": int(ds.attrs["seed"]), "runs": int(ds.attrs["runs"]), "effects": list(ds.attrs["effects"]),
-                "setpoint_range_c": [float(ds["program/setpoint_c"].min()), float(ds["program/setpoint_c"].max())],
-                "die_range_c": [float(die.min()), float(die.max())],
-                "die_minus_thermometer_max_abs_c": float(np.max(np.abs(die - thermo))),
-                "white_noise_sigma_mg": float(ds.attrs["white_noise_sigma_g"]) * 1e3, **axes.summary_fields(ds)}
-    drift = ds["truth/drift_g"]
     die, thermo = ds["temperature/die_c"], ds["temperature/thermometer_c"]
-    return {
-        "samples": len(ds),
-        "duration_h": float(t[-1] - t[0]) / 3600.0 if t.size else 0.0,
-        "seed": int(ds.attrs["seed"]),
-        "runs": int(ds.attrs["runs"]),
-        "effects": list(ds.attrs["effects"]),
-        "setpoint_range_c": [float(ds["program/setpoint_c"].min()), float(ds["program/setpoint_c"].max())],
-        "die_range_c": [float(die.min()), float(die.max())],
-        "die_minus_thermometer_max_abs_c": float(np.max(np.abs(die - thermo))),
-        "drift_range_mg": [float(drift.min() * 1e3), float(drift.max() * 1e3)],
-        "white_noise_sigma_mg": float(ds.attrs["white_noise_sigma_g"]) * 1e3,
-        "output_rms_minus_truth_mg": float(np.sqrt(np.mean((ds["output/output_g"] - ds["test/applied_g"] - drift) ** 2)) * 1e3),
-        "saturated_samples": int(np.count_nonzero(ds["truth/saturated"])),
-    }
+    common = dict(samples=len(ds), duration_h=float(t[-1] - t[0]) / 3600.0 if t.size else 0.0,
+                  seed=int(ds.attrs["seed"]), runs=int(ds.attrs["runs"]), effects=list(ds.attrs["effects"]),
+                  setpoint_range_c=(float(ds["program/setpoint_c"].min()), float(ds["program/setpoint_c"].max())),
+                  die_range_c=(float(die.min()), float(die.max())),
+                  die_minus_thermometer_max_abs_c=float(np.max(np.abs(die - thermo))),
+                  white_noise_sigma_mg=float(ds.attrs["white_noise_sigma_g"]) * 1e3)
+    if axes.is_three_axis(ds):
+        return RunSummary(**common, **axes.summary_fields(ds))
+    drift = ds["truth/drift_g"]
+    return RunSummary(
+        **common,
+        drift_range_mg=(float(drift.min() * 1e3), float(drift.max() * 1e3)),
+        output_rms_minus_truth_mg=float(np.sqrt(np.mean((ds["output/output_g"] - ds["test/applied_g"] - drift) ** 2)) * 1e3),
+        saturated_samples=int(np.count_nonzero(ds["truth/saturated"])),
+    )

@@ -27,6 +27,7 @@ from typing import Any
 
 from twin.errors import ScenarioError
 from twin.io import read_text
+from twin.parts.records import FigureRecord, PartRecord
 from twin.text import did_you_mean, format_path, load_yaml_mapping, where
 
 
@@ -206,12 +207,12 @@ class Part:
         return (f"{self.name} datasheet TCOff {tcoff:g} mg/°C, TCSo {tcso:g} %/°C = {tcso * 10 * acceleration_g:g} mg/°C "
                 f"at this input")
 
-    def describe(self) -> dict:
-        """JSON-ready description (``twin parts --json``).
+    def describe(self) -> PartRecord:
+        """Typed description (``twin parts --json``).
 
         Returns
         -------
-        dict
+        PartRecord
             Name, description, datasheet, file, and each figure's name, value [its unit], unit,
             source, verified flag, note and meaning.
         """
@@ -220,10 +221,10 @@ class Part:
                 return {f"{k:g}": x for k, x in v.items()}
             return list(v) if isinstance(v, tuple) else v
 
-        return {"name": self.name, "description": self.description, "datasheet": self.datasheet, "file": self.path,
-                "figures": [{"name": n, "value": plain(f.value), "unit": f.unit, "source": f.source,
-                             "verified": f.verified, "note": f.note, "meaning": FIGURES[n].meaning}
-                            for n, f in self.figures.items()]}
+        return PartRecord(name=self.name, description=self.description, datasheet=self.datasheet, file=self.path,
+                          figures=[FigureRecord(name=n, value=plain(f.value), unit=f.unit, source=f.source,
+                                                verified=f.verified, note=f.note, meaning=FIGURES[n].meaning)
+                                   for n, f in self.figures.items()])
 
 
 def _is_number(v: Any) -> bool:

@@ -7,12 +7,12 @@ import numpy as np
 from twin.errors import ModelError
 
 
-def text_lines(result: dict, source: str = "") -> list[str]:
+def text_lines(result, source: str = "") -> list[str]:
     """The prediction as a few lines of text.
 
     Parameters
     ----------
-    result : dict
+    result : PackagePrediction
         The prediction of :mod:`twin.model.package` (design, mesh, warpage [µm], TCOff [mg/°C],
         TCSo [ppm/°C], gap change [pm/K], datasheet values).
     source : str
@@ -22,24 +22,24 @@ def text_lines(result: dict, source: str = "") -> list[str]:
     -------
     list of str
     """
-    d, ds = result["design"], result["datasheet"]
+    d, ds = result.design, result.datasheet
     head = (f"package_fem ({source}): mould α1 {d['mould_cte_ppm_per_k']:g} ppm/K, attach {d['attach_modulus_gpa']:g} "
             f"GPa × {d['attach_thickness_um']:g} µm, die {d['die_thickness_um']:g} µm (offset {d['die_offset_um']:g} µm), "
             f"cell at {d['cell_offset_um']:g} µm")
-    mesh = (f"mesh: {result['mesh']['elements']} {result['mesh']['element']} elements, {result['mesh']['dofs']} dofs "
-            f"({result['mesh']['kinematics']})")
+    mesh = (f"mesh: {result.mesh.elements} {result.mesh.element} elements, {result.mesh.dofs} dofs "
+            f"({result.mesh.kinematics})")
     lines = [head, mesh]
-    lines += [f"  die bow at {w['temperature_c']:5.1f} °C: {w['die_bow_um']:.3f} µm (curvature {w['curvature_per_m']:+.4f} 1/m)"
-              for w in result["warpage"]]
-    lines.append(f"TCOff {result['tcoff_mg_per_c']:+.3f} mg/°C (largest excursion from 25 °C "
-                 f"{result['tcoff_excursion_mg_per_c']:+.3f}); datasheet ±{ds['tcoff_mg_per_c']:g} mg/°C typ")
-    lines.append(f"TCSo  {result['tcso_ppm_per_c']:+.1f} ppm/°C from the package (excursion "
-                 f"{result['tcso_excursion_ppm_per_c']:+.1f}); datasheet ±{ds['tcso_ppm_per_c']:g} ppm/°C typ")
-    gaps = result["gap_change_pm_per_k"]
+    lines += [f"  die bow at {w.temperature_c:5.1f} °C: {w.die_bow_um:.3f} µm (curvature {w.curvature_per_m:+.4f} 1/m)"
+              for w in result.warpage]
+    lines.append(f"TCOff {result.tcoff_mg_per_c:+.3f} mg/°C (largest excursion from 25 °C "
+                 f"{result.tcoff_excursion_mg_per_c:+.3f}); datasheet ±{ds.tcoff_mg_per_c:g} mg/°C typ")
+    lines.append(f"TCSo  {result.tcso_ppm_per_c:+.1f} ppm/°C from the package (excursion "
+                 f"{result.tcso_excursion_ppm_per_c:+.1f}); datasheet ±{ds.tcso_ppm_per_c:g} ppm/°C typ")
+    gaps = result.gap_change_pm_per_k
     lines.append(f"gap change beyond dilation: right {gaps['right']:+.2f}, left {gaps['left']:+.2f} pm/K; "
-                 f"input-equivalent δ {result['delta_pm_per_k']:+.2f} pm/K")
+                 f"input-equivalent δ {result.delta_pm_per_k:+.2f} pm/K")
     lines.append("TCOff by material [mg/°C]: " + ", ".join(f"{m} {v:+.3f}" for m, v in
-                                                         result["tcoff_by_material_mg_per_c"].items()))
+                                                         result.tcoff_by_material_mg_per_c.items()))
     return lines
 
 

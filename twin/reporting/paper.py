@@ -8,6 +8,7 @@ Micromachines 2022; equation and table numbers are its own.
 from __future__ import annotations
 
 from sim import calculators as calc
+from twin.reporting.results import CteOrderFit, PaperItem, PaperReport
 
 
 def design_report(
@@ -28,8 +29,8 @@ def design_report(
 
     Returns
     -------
-    dict
-        ``{"items": [{name, value, unit, kind, note}, ...]}``; ``kind`` is ``paper-as-printed``
+    DesignReport
+        Its ``items`` (name, value, unit, kind, note); ``kind`` is ``paper-as-printed``
         or ``physical`` so nobody mistakes eq. (31) for a time.
     """
     beta = calc.paper_beta_mg_per_c(tcso_pct_per_c)
@@ -55,7 +56,9 @@ def design_report(
         ("centre_63pct_time", calc.centre_response_fourier(0.632) * l_half**2 / a, "s", "physical",
          "centre plane reaches 63.2 % of a wall step (Fo = 0.503); a fan-stirred chamber is far faster"),
     ]
-    return {"items": [dict(name=n, value=float(v), unit=u, kind=k, note=note) for n, v, u, k, note in items]}
+    from twin.reporting.results import DesignItem, DesignReport
+
+    return DesignReport([DesignItem(name=n, value=float(v), unit=u, kind=k, note=note) for n, v, u, k, note in items])
 
 
 # Table 1 and Table 2 of the paper, as printed.
@@ -113,22 +116,21 @@ def _verdict(same: bool | None, why: str) -> str:
     return f"{label}: {why}"
 
 
-def paper_report() -> dict:
+def paper_report() -> PaperReport:
     """Each derived number of the paper next to what the code computes, with a verdict.
 
     Returns
     -------
-    dict
-        ``items`` (item, paper, computed, unit, verdict: ``reproduced``, ``differs`` or ``computed``)
-        and the count of each verdict.
+    PaperReport
+        Its ``items`` (item, paper, computed [unit], unit, verdict: ``reproduced``, ``differs`` or
+        ``computed``) and the count of each verdict.
     """
     from sim.materials import cte_polynomial_orders, silicon_cte_per_k
 
     items = []
 
     def add(key, printed, computed, unit, same, why, **extra):
-        items.append({"item": key, "paper": printed, "computed": computed, "unit": unit,
-                      "verdict": _verdict(same, why), **extra})
+        items.append(PaperItem(item=key, paper=printed, computed=computed, unit=unit, verdict=_verdict(same, why), **extra))
 
     beta = calc.paper_beta_mg_per_c()
     add("eq33_beta", 0.64, beta, "mg/degC", abs(beta - 0.64) < 1e-9,
@@ -146,7 +148,7 @@ def paper_report() -> dict:
     add("figure3_rmse_order2", 2.39e-9, rmse[2], "1/K", False,
         f"order-2 RMSE is {rmse[2]:.3g}; 2.39e-9 is its maximum error ({orders[1]['max_abs_error_per_k']:.3g}); "
         "order 1 fails the 1e-8 criterion and order 2 passes, as the paper concludes",
-        per_order=orders)
+        per_order=[CteOrderFit(**row) for row in orders])
     ratio = rmse[2] / rmse[1]
     add("figure3_rmse_ratio_2_to_1", 0.10, ratio, "1", False, f"RMSE2/RMSE1 = {100 * ratio:.1f} %, not 10 %")
     for q, (model, printed) in zip(("Q1", "Q2", "Q3"), (("model1", TABLE1_Q_PERCENT["Q1"]), ("model2", TABLE1_Q_PERCENT["Q2"]),
@@ -175,5 +177,5 @@ def paper_report() -> dict:
     add("silicon_cte_323K", 2.5e-6, a323, "1/K", False,
         f"Okada & Tokumaru give {a323:.4g} at 323 K; 2.5e-6 holds at 293 K ({float(silicon_cte_per_k(293.15)):.4g})")
     add("operating_range", "-40..85", "-40..105", "degC", False, "datasheet front page: -40 to +105 degC")
-    count = {label: sum(i["verdict"].startswith(label) for i in items) for label in ("reproduced", "differs", "computed")}
-    return {"items": items, **count}
+    count = {label: sum(i.verdict.startswith(label) for i in items) for label in ("reproduced", "differs", "computed")}
+    return PaperReport(items=items, **count)

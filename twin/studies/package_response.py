@@ -8,10 +8,11 @@ cached solve per design, no simulation needed for the number itself. Load with
 
 from __future__ import annotations
 
+from twin.model.results import PackagePrediction
 from twin.studies.responses import ResponseError, RunContext, register_response
 
 
-def _prediction(run: RunContext) -> dict:
+def _prediction(run: RunContext) -> PackagePrediction:
     from twin.model.package import package_prediction
 
     effects = [e for e in run.loaded.device_composition().effects if e.name == "package_fem"]
@@ -35,7 +36,7 @@ def package_tcoff_mg_per_c(run: RunContext) -> float:
     float
         Least-squares slope of the zero-g offset [mg/°C].
     """
-    return _prediction(run)["tcoff_mg_per_c"]
+    return _prediction(run).tcoff_mg_per_c
 
 
 @register_response("package_tcso_ppm_per_c", description="package-induced TCSo of the FE model over -40..85 °C",
@@ -53,7 +54,7 @@ def package_tcso_ppm_per_c(run: RunContext) -> float:
     float
         TCSo [ppm/°C].
     """
-    return _prediction(run)["tcso_ppm_per_c"]
+    return _prediction(run).tcso_ppm_per_c
 
 
 @register_response("package_die_bow_um", description="die bow (peak-to-valley after the best line) at -40 °C",
@@ -71,4 +72,4 @@ def package_die_bow_um(run: RunContext) -> float:
     float
         Peak-to-valley after the best line [µm].
     """
-    return _prediction(run)["warpage"][0]["die_bow_um"]
+    return _prediction(run).warpage[0].die_bow_um

@@ -25,7 +25,7 @@ def render_package(loaded, output: str | Path, *, temperature_c: float | None = 
 
     Returns
     -------
-    dict
+    RenderResult
         What was written: output, temperatures, frames, exaggeration, degrees of freedom.
     """
     from twin.model.package import package_effect, solve_checked
@@ -39,5 +39,7 @@ def render_package(loaded, output: str | Path, *, temperature_c: float | None = 
     else:
         render_fem_sweep(sol, sweep_c, output, exaggeration=exaggeration, progress=progress)
         temps = [float(t) for t in sweep_c]
-    return {"output": str(output), "temperatures_c": temps, "frames": len(temps), "exaggeration": exaggeration,
-            "dofs": sol.n_dofs, "field": "package_fem"}
+    from twin.reporting.results import RenderResult
+
+    return RenderResult(output=str(output), temperatures_c=temps, frames=len(temps), exaggeration=exaggeration,
+                        dofs=sol.n_dofs, field="package_fem")

@@ -4,11 +4,17 @@ from __future__ import annotations
 
 from typing import Union
 
+from twin.calibration.field_result import ApplyResult, FirmwareResult
 from twin.calibration.result import CalibrationDocument
+from twin.compensation.benchmark_result import BenchmarkResult
+from twin.effects.records import EffectsListing
 from twin.errors import TwinError
 from twin.finding.result import AxesCompareResult, CompareResult
 from twin.fleet.result import FleetResult, SimulatedFleet
 from twin.results import json_schema
+from twin.model.results import PackagePrediction, RunSummary
+from twin.parts.records import PartsListing
+from twin.reporting.results import CombReport, DesignReport, ExportResult, PaperReport, RenderResult
 from twin.studies.result import DoeResult
 
 
@@ -20,7 +26,10 @@ def result_types() -> dict[str, object]:
     dict of str to type
     """
     return {"compare": Union[CompareResult, AxesCompareResult], "fleet": FleetResult, "fleet-simulate": SimulatedFleet,
-            "doe": DoeResult, "calibration": CalibrationDocument}
+            "doe": DoeResult, "calibration": CalibrationDocument, "run": RunSummary, "test-design": DesignReport,
+            "comb": CombReport, "render": RenderResult, "export": ExportResult, "package": PackagePrediction,
+            "paper": PaperReport, "effects": EffectsListing, "parts": PartsListing,
+            "firmware": FirmwareResult, "apply": ApplyResult, "benchmark": BenchmarkResult}
 
 
 def result_schema(name: str) -> dict:
