@@ -185,7 +185,7 @@ def test_dataset_round_trip_summary_and_imu_log(ds, log, tmp_path):
         np.testing.assert_array_equal(back[k], ds[k], err_msg=k)
         assert ds[k].ndim == 1 and ds[k].size == len(ds)
     s = summary(back)
-    assert s["axes"] == list(AXES) and s["samples"] == len(ds) and 1.2 < s["output_rms_minus_truth_mg"] < 1.5
+    assert list(s.axes) == list(AXES) and s.samples == len(ds) and 1.2 < s.output_rms_minus_truth_mg < 1.5
     assert log.accel_g.shape == (len(ds), 3) and np.array_equal(log.temperature_c, ds["temperature/thermometer_c"])
     assert "test/applied_g" not in ds.arrays and "output/output_g" not in ds.arrays
 
