@@ -46,9 +46,22 @@ class Branch:
 
     @property
     def index(self) -> np.ndarray:
+        """Sample indices ``start:stop`` of the branch [rows]."""
         return np.arange(self.start, self.stop)
 
     def label(self, k: int) -> str:
+        """Name of the branch for tables, e.g. ``"heating 1 (25.0→60.0 °C)"``.
+
+        Parameters
+        ----------
+        k : int
+            Its number among the branches of its kind (1-based).
+
+        Returns
+        -------
+        str
+            The label, with the end temperatures [°C].
+        """
         return f"{self.kind} {k} ({self.start_c:.1f}→{self.stop_c:.1f} °C)"
 
 
@@ -151,7 +164,17 @@ def _with_dwells(offset, a, b, t, raw, rate, dwell_rate, min_dwell_s, min_span_c
 
 @dataclass(frozen=True, eq=False)
 class TestSet:
-    """Held-out samples of one branch (or block) with the share outside the trained range."""
+    """Held-out samples of one branch (or block) with the share outside the trained range.
+
+    Attributes
+    ----------
+    name : str
+        The branch or block.
+    index : ndarray of int
+        Held-out rows.
+    extrapolated : ndarray of bool
+        Per sample: temperature outside the training range.
+    """
 
     name: str
     index: np.ndarray
@@ -159,12 +182,27 @@ class TestSet:
 
     @property
     def extrapolated_fraction(self) -> float:
+        """Share of the held-out samples outside the training temperature range [0–1]."""
         return float(self.extrapolated.mean()) if self.extrapolated.size else 0.0
 
 
 @dataclass(frozen=True, eq=False)
 class Fold:
-    """Train on ``train`` (indices), test on each of ``tests``."""
+    """Train on ``train`` (indices), test on each of ``tests``.
+
+    Attributes
+    ----------
+    name : str
+        The fold.
+    train : ndarray of int
+        Training rows.
+    tests : tuple of TestSet
+        Held-out sets.
+    note : str
+        Caveat, or empty.
+    directions : tuple of str
+        Thermal directions the training rows hold, each spanning enough.
+    """
 
     name: str
     train: np.ndarray
@@ -180,7 +218,19 @@ class Fold:
 
 @dataclass(frozen=True, eq=False)
 class Protocol:
-    """A validation protocol: its folds, the branches it was built from, and caveats."""
+    """A validation protocol: its folds, the branches it was built from, and caveats.
+
+    Attributes
+    ----------
+    name : str
+        The protocol.
+    folds : tuple of Fold
+        Its folds.
+    branches : tuple of Branch
+        The branches it was built from.
+    note : str
+        Caveat, or empty.
+    """
 
     name: str
     folds: tuple[Fold, ...]
@@ -226,6 +276,24 @@ def protocol_as_used(time_s, temperature_c, run=None, reverse: bool = True, min_
        False, and the recommendation does not trust such a term on them).
 
     Every fold records the directions its training rows hold.
+
+    Parameters
+    ----------
+    time_s, temperature_c : (n,) array-like
+        Sample times [s] and temperatures [°C].
+    run : (n,) array-like of int, optional
+        Run id per sample.
+    reverse : bool
+        Also the reverse direction in the fallback folds.
+    min_train_span_c : float
+        Span [°C] each training direction needs.
+    **split_kwargs
+        Keywords of :func:`split_branches`.
+
+    Returns
+    -------
+    Protocol
+        The folds and the branches.
     """
     T = np.asarray(temperature_c, float)
     if run is not None and np.unique(np.asarray(run)).size > 1:
@@ -270,6 +338,31 @@ def protocol_heating_vs_cooling(time_s, temperature_c, run=None, reverse: bool =
     Several runs give leave-one-run-out folds instead (each held-out run tested per branch).
     A log with only one direction falls back to interleaved contiguous blocks (every other block
     held out), with a note: such a test cannot see rate-dependent errors. Dwells are in neither set.
+
+    Parameters
+    ----------
+    time_s, temperature_c : (n,) array-like
+        Sample times [s] and temperatures [°C].
+    run : (n,) array-like of int, optional
+        Run id per sample.
+    reverse : bool
+        Also fit on cooling and test on heating.
+    n_blocks : int
+        Blocks per half in the interleaved fallback.
+    min_train_span_c : float
+        Span [°C] a training direction needs.
+    **split_kwargs
+        Keywords of :func:`split_branches`.
+
+    Returns
+    -------
+    Protocol
+        The folds and the branches.
+
+    Raises
+    ------
+    TwinError
+        When too few samples remain for the interleaved blocks.
     """
     T = np.asarray(temperature_c, float)
     branches = split_branches(time_s, T, run=run, **split_kwargs)

@@ -96,7 +96,18 @@ def _columns(effects: list, log: ThermalLog, applied_g: float, degree: int, refe
 
 
 def reads_temperature(effect: str) -> bool:
-    """Whether an effect reads a temperature (die or thermometer), not time alone."""
+    """Whether an effect reads a temperature (die or thermometer), not time alone.
+
+    Parameters
+    ----------
+    effect : str
+        Registered effect name.
+
+    Returns
+    -------
+    bool
+        True when it reads ``die_c`` or ``thermometer_c``.
+    """
     return bool({"die_c", "thermometer_c"} & set(get_effect(effect).reads))
 
 
@@ -109,6 +120,22 @@ def composed_drift_g(axes: list[dict], reference_c: float, time_s, temperature_c
 
     ``axes[a]``: ``{"coef_mg": [...], "applied_g": g, "effects": [{"name", "values"}, ...]}`` as
     :attr:`ComposedCompensator.axes_` holds it; amplitudes are in the effects' values.
+
+    Parameters
+    ----------
+    axes : list of dict
+        The stored axes.
+    reference_c : float
+        Expansion point [°C].
+    time_s, temperature_c : (n,) array-like
+        Sample times [s] and temperatures [°C].
+    run : (n,) array-like of int, optional
+        Run id per sample.
+
+    Returns
+    -------
+    (n, 3) ndarray
+        Drift [g].
     """
     log = as_log(make_X(time_s, temperature_c, run))
 
@@ -160,7 +187,22 @@ class ComposedCompensator(CompensatorBase):
         return [TEMPERATURE_SLOT] + [n for n in dict.fromkeys(named) if n != TEMPERATURE_SLOT]
 
     def fit(self, X, y, mask=None):
-        """Fit each axis on the rows of ``mask``; the effects run over every row of ``X``. Returns self."""
+        """Fit each axis on the rows of ``mask``; the effects run over every row of ``X``. Returns self.
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+        y : (n, 3) array-like
+            Readings [g].
+        mask : array-like of bool or int, optional
+            Rows to fit on.
+
+        Returns
+        -------
+        ComposedCompensator
+            ``self``, fitted.
+        """
         log, y, keep = fit_inputs(self, X, y, mask)
         self.axes_ = []
         for a, axis in enumerate(AXES):
@@ -215,13 +257,30 @@ class ComposedCompensator(CompensatorBase):
         return np.array([e["coef_mg"] for e in self.axes_])
 
     def predict(self, X) -> np.ndarray:
-        """Modelled reading [g], (n, 3): level plus the composed drift."""
+        """Modelled reading [g], (n, 3): level plus the composed drift.
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+
+        Returns
+        -------
+        (n, 3) ndarray
+            Modelled reading [g].
+        """
         log = validated_log(self, X, reset=False)
         drift = composed_drift_g(self.axes_, self.reference_c, log.time_s, log.temperature_c, log.run)
         return drift + self.coef_mg_[:, 0] * 1e-3
 
     def equation(self) -> str:
-        """Per axis the static curve and each effect with its fitted values."""
+        """Per axis the static curve and each effect with its fitted values.
+
+        Returns
+        -------
+        str
+            One line per axis (coefficients in mg/°C^k).
+        """
         check_is_fitted(self)
         lines = []
         for e in self.axes_:
@@ -232,23 +291,54 @@ class ComposedCompensator(CompensatorBase):
         return "\n".join(lines)
 
     def without_c_form(self) -> list[str]:
-        """The composed effects the C header cannot run (``twin.firmware.composed_header.SUPPORTED``)."""
+        """The composed effects the C header cannot run (``twin.firmware.composed_header.SUPPORTED``).
+
+        Returns
+        -------
+        list of str
+            Effect names, sorted.
+        """
         from twin.firmware.composed_header import SUPPORTED
 
         return sorted({x["name"] for e in self.axes_ for x in e["effects"] if x["name"] not in SUPPORTED})
 
     def drifts_in_time(self) -> list[str]:
-        """The composed effects no firmware runs that read no temperature: a drift in time (aging)."""
+        """The composed effects no firmware runs that read no temperature: a drift in time (aging).
+
+        Returns
+        -------
+        list of str
+            Effect names.
+        """
         return [n for n in self.without_c_form() if not reads_temperature(n)]
 
     def effect_names(self) -> dict[str, list[str]]:
-        """Per axis the drift effects composed (the temperature slot left out)."""
+        """Per axis the drift effects composed (the temperature slot left out).
+
+        Returns
+        -------
+        dict of str to list of str
+            Axis → effect names.
+        """
         return {e["axis"]: [x["name"] for x in e["effects"] if x["name"] != TEMPERATURE_SLOT] for e in self.axes_}
 
 
 def composed_notes(validation: ValidationResult, fitted: dict) -> tuple[str, ...]:
     """Per composed method and axis: the effects composed and its held-out RMS beside the lag-aware
-    twin's, i.e. whether what compare named helps a compensation on data it was not fitted on."""
+    twin's, i.e. whether what compare named helps a compensation on data it was not fitted on.
+
+    Parameters
+    ----------
+    validation : ValidationResult
+        The held-out scores.
+    fitted : dict
+        Method name → fitted estimator.
+
+    Returns
+    -------
+    tuple of str
+        One note per composed method and axis (RMS in mg).
+    """
     out = []
     for name, est in fitted.items():
         if not isinstance(est, ComposedCompensator) or name not in validation.methods:
@@ -269,6 +359,18 @@ def composed_notes(validation: ValidationResult, fitted: dict) -> tuple[str, ...
 
 def effects_named_by_compare(doc, source: str) -> dict[int, dict[str, tuple[str, ...]]]:
     """Per IMU instance and axis, the effects a ``twin compare --axes … --json`` result named.
+
+    Parameters
+    ----------
+    doc : dict
+        The parsed JSON.
+    source : str
+        Where it came from, for messages.
+
+    Returns
+    -------
+    dict of int to dict of str to tuple of str
+        Instance → axis → effect names.
 
     Raises
     ------

@@ -15,7 +15,25 @@ class CalibrationDocumentError(TwinError):
 
 
 def firmware_cal(data: dict, name: str):
-    """The firmware calibration object (PX4 or ArduPilot) a stored method holds."""
+    """The firmware calibration object (PX4 or ArduPilot) a stored method holds.
+
+    Parameters
+    ----------
+    data : dict
+        The stored method (``kind`` must be ``"firmware"``).
+    name : str
+        Method name, for messages.
+
+    Returns
+    -------
+    object
+        The PX4 or ArduPilot calibration (:func:`twin.firmware.cal_from_dict`).
+
+    Raises
+    ------
+    CalibrationDocumentError
+        When the method is not a firmware polynomial.
+    """
     if data.get("kind") != "firmware":
         raise CalibrationDocumentError(f"method {name!r} is not a firmware polynomial")
     return cal_from_dict(data["firmware"], name)
@@ -24,9 +42,25 @@ def firmware_cal(data: dict, name: str):
 def correction_g(data: dict, time_s, temperature_c, run=None) -> np.ndarray:
     """What a method subtracts from the reading [g], (n, 3).
 
-    Firmware polynomials give the firmware's own offset; the lag-aware twin gives its modelled
+    Firmware polynomials give the firmware's own offset (the clamped polynomial of PX4
+    ``TemperatureCompensation::calc_thermal_offsets_3D`` / ArduPilot ``TCal::correct_sensor``,
+    :mod:`twin.firmware`); the lag-aware twin gives its modelled
     drift minus its level (the constant the ordinary accelerometer calibration owns). A polynomial
     without lags (``tau_die_s`` absent) is evaluated in the raw temperature.
+
+    Parameters
+    ----------
+    data : dict
+        The stored method.
+    time_s, temperature_c : (n,) array-like
+        Sample times [s] and temperatures [°C].
+    run : (n,) array-like of int, optional
+        Run id per sample (lags restart at each run).
+
+    Returns
+    -------
+    (n, 3) ndarray
+        Correction [g].
     """
     T = np.asarray(temperature_c, float)
     if data.get("kind") == "firmware":

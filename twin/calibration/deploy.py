@@ -49,7 +49,18 @@ AFTER_LOADING = {
 
 
 def read_calibration(path: str | Path) -> dict:
-    """The document ``twin calibrate -o`` wrote, checked for its schema."""
+    """The document ``twin calibrate -o`` wrote, checked for its schema.
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON document.
+
+    Returns
+    -------
+    dict
+        The checked document.
+    """
     path = Path(path)
     doc = read_json(path, "calibration document", CalibrationDocumentError)
     if not isinstance(doc, dict) or doc.get("schema") != SCHEMA or doc.get("schema_version") != SCHEMA_VERSION:
@@ -72,6 +83,11 @@ def check_document(doc: dict, path: str) -> None:
     """Every IMU entry has what the exporters and ``twin apply`` read, and every method's correction
     is finite over the calibrated span (an edited or corrupted document is one line, not a crash
     or a firmware file of NaN).
+
+    Parameters
+    ----------
+    doc, path : dict, str
+        The document, and where it came from (for messages).
 
     Raises
     ------
@@ -192,7 +208,22 @@ def _check_slot(data: dict, instance: int, entry: dict, where: str) -> None:
 
 def imu_entry(doc: dict, instance: int | None, device_id: int | None = None, source: str = "calibration") -> dict:
     """The document's entry for an IMU instance (the only one when ``instance`` is None); a
-    ``device_id`` that differs from the calibrated one is an error naming both."""
+    ``device_id`` that differs from the calibrated one is an error naming both.
+
+    Parameters
+    ----------
+    doc : dict
+        The calibration document.
+    instance, device_id : int or None
+        IMU instance; the log's IMU device id.
+    source : str
+        Name for messages.
+
+    Returns
+    -------
+    dict
+        The IMU entry.
+    """
     imus = doc["imus"]
     if instance is None:
         if len(imus) > 1:
@@ -216,6 +247,20 @@ def method_entry(entry: dict, method: str | None, target: str = "c", force: bool
 
     A method the calibration flagged as implausible is refused unless ``force``: what goes into a
     vehicle must not be a fit of motion, a crash or a time constant the data could not fix.
+
+    Parameters
+    ----------
+    entry : dict
+        The IMU entry.
+    method, target : str or None, str
+        Method name; the target (``"c"``, ``"px4"``, ``"ardupilot"``) whose recommendation is used.
+    force : bool
+        Accept a flagged method.
+
+    Returns
+    -------
+    (str, dict)
+        The method's name and stored data.
     """
     flags = entry.get("flags") or {}
     name = method or entry["recommended"].get(target)
@@ -242,7 +287,15 @@ def method_entry(entry: dict, method: str | None, target: str = "c", force: bool
 
 @dataclass(frozen=True)
 class Export:
-    """What ``twin firmware`` wrote: the file, its line count, and what the user should know."""
+    """What ``twin firmware`` wrote: the file, its line count, and what the user should know.
+
+    Attributes
+    ----------
+    path, lines : Path, int
+        The file written and its line count.
+    notes, methods : tuple of str
+        What the user should know; the method written for each IMU.
+    """
 
     path: Path
     lines: int
@@ -290,6 +343,22 @@ def export_calibration(doc: dict, fmt: str, path: str | Path, *, method: str | N
     PX4 and ArduPilot files carry the gyro calibration when the log had the gyro, and no gyro line
     otherwise (a zero line would erase the vehicle's own). Every value is checked as the firmware
     holds it, and the text is read back as the ground station loads it before the atomic rename.
+
+    Parameters
+    ----------
+    doc, fmt, path : dict, str, str or Path
+        The calibration document, one of :data:`FORMATS`, the output file.
+    method, instance : str, int, optional
+        Method written (default: recommended) and IMU written (default: all).
+    sample_rate_hz : float, optional
+        Sample rate [Hz] of the C header (default: the log's).
+    device_id, gyro_device_id, force : int, int, bool
+        PX4 ``TC_An_ID`` / ``TC_Gn_ID`` when the calibration lacks them; export a flagged method anyway.
+
+    Returns
+    -------
+    Export
+        The file written, its line count and notes.
 
     Raises
     ------

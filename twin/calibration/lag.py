@@ -45,12 +45,31 @@ class ThermalLog:
     run: np.ndarray
 
     def segments(self) -> list[slice]:
-        """Contiguous slices of equal run id, in order."""
+        """Contiguous slices of equal run id, in order.
+
+        Returns
+        -------
+        list of slice
+            One slice per run.
+        """
         return run_slices(self.run)
 
 
 def make_X(time_s, temperature_c, run=None) -> np.ndarray:
-    """Stack ``time_s``, ``temperature_c`` (and ``run``) into the estimators' ``X``."""
+    """Stack ``time_s``, ``temperature_c`` (and ``run``) into the estimators' ``X``.
+
+    Parameters
+    ----------
+    time_s, temperature_c : (n,) array-like
+        Sample times [s] and temperatures [°C].
+    run : (n,) array-like of int, optional
+        Run id per sample.
+
+    Returns
+    -------
+    (n, 2) or (n, 3) ndarray
+        The estimators' ``X``.
+    """
     cols = [np.asarray(time_s, float), np.asarray(temperature_c, float)]
     if run is not None:
         cols.append(np.asarray(run, float))
@@ -59,6 +78,16 @@ def make_X(time_s, temperature_c, run=None) -> np.ndarray:
 
 def as_log(X) -> ThermalLog:
     """Check ``X`` and return it as a :class:`ThermalLog`.
+
+    Parameters
+    ----------
+    X : array-like, (n, 2) or (n, 3)
+        ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+
+    Returns
+    -------
+    ThermalLog
+        The log split into runs.
 
     Raises
     ------
@@ -94,6 +123,11 @@ def validated_log(estimator, X, *, reset: bool) -> ThermalLog:
         ``[time_s, temperature_c]`` [s, °C], or with a run id in the third column.
     reset : bool
         True in ``fit``, False in every method that uses a fitted estimator.
+
+    Returns
+    -------
+    ThermalLog
+        The checked log.
 
     Raises
     ------
@@ -154,7 +188,20 @@ def _lag_segment(time_s: np.ndarray, temperature_c: np.ndarray, tau_s: float) ->
 
 
 def lagged_c(log: ThermalLog, tau_s: float) -> np.ndarray:
-    """Causal first-order lag ``lag(T, τ)`` [°C] of the log, from equilibrium at each run's start."""
+    """Causal first-order lag ``lag(T, τ)`` [°C] of the log, from equilibrium at each run's start.
+
+    Parameters
+    ----------
+    log : ThermalLog
+        The temperature log.
+    tau_s : float
+        Time constant [s] (≤ 0: no lag).
+
+    Returns
+    -------
+    (n,) ndarray
+        Lagged temperature [°C].
+    """
     out = np.empty_like(log.temperature_c)
     for s in log.segments():
         out[s] = _lag_segment(log.time_s[s], log.temperature_c[s], float(tau_s))
@@ -162,7 +209,27 @@ def lagged_c(log: ThermalLog, tau_s: float) -> np.ndarray:
 
 
 def train_mask(y: np.ndarray, n: int, mask=None) -> np.ndarray:
-    """Rows to fit on: ``mask`` (boolean or indices) and finite ``y``; raise if too few."""
+    """Rows to fit on: ``mask`` (boolean or indices) and finite ``y``; raise if too few.
+
+    Parameters
+    ----------
+    y : (n, 3) ndarray
+        Readings; rows with NaN are left out.
+    n : int
+        Rows of ``X``.
+    mask : array-like of bool or int, optional
+        Rows allowed.
+
+    Returns
+    -------
+    (n,) ndarray of bool
+        The rows to fit on.
+
+    Raises
+    ------
+    ThermalLogError
+        When ``y`` is not (n, 3) or fewer than :data:`MIN_TRAIN_ROWS` rows remain.
+    """
     y = np.asarray(y, float)
     if y.shape != (n, 3):
         raise ThermalLogError(f"accel_g must be (n, 3) with n = {n} rows like X; got {y.shape}")

@@ -84,6 +84,20 @@ class LagAwareCompensator(CompensatorBase):
 
         The lags run over every row of ``X``, so the thermal history before the training rows
         (e.g. the cooling that precedes a heating branch) is accounted for.
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+        y : (n, 3) array-like
+            Readings [g].
+        mask : array-like of bool or int, optional
+            Rows to fit on.
+
+        Returns
+        -------
+        LagAwareCompensator
+            ``self``, fitted.
         """
         if self.share not in ("auto", "shared", "per_axis") or self.rate_term not in ("auto", True, False):
             raise TwinError(f"share must be auto|shared|per_axis and rate_term auto|True|False; "
@@ -122,12 +136,34 @@ class LagAwareCompensator(CompensatorBase):
         self.train_rms_mg_ = rms
 
     def die_temperature_c(self, X) -> np.ndarray:
-        """``T_die = lag(T, τ_die)`` per axis [°C], (n, 3)."""
+        """``T_die = lag(T, τ_die)`` per axis [°C], (n, 3).
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+
+        Returns
+        -------
+        (n, 3) ndarray
+            Die temperature per axis [°C].
+        """
         log = validated_log(self, X, reset=False)
         return np.column_stack([lagged_c(log, t) for t in self.tau_die_s_])
 
     def predict(self, X) -> np.ndarray:
-        """Modelled reading [g], (n, 3)."""
+        """Modelled reading [g], (n, 3).
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+
+        Returns
+        -------
+        (n, 3) ndarray
+            Modelled reading [g].
+        """
         log = validated_log(self, X, reset=False)
         out = np.empty((log.time_s.size, 3))
         lags: dict[float, np.ndarray] = {}
@@ -142,7 +178,13 @@ class LagAwareCompensator(CompensatorBase):
         return out * 1e-3
 
     def equation(self) -> str:
-        """The fitted model with values and units, one line per axis, then the lags."""
+        """The fitted model with values and units, one line per axis, then the lags.
+
+        Returns
+        -------
+        str
+            The model (mg, mg/°C^k, s).
+        """
         check_is_fitted(self)
         lines = []
         for a, ax in enumerate(AXES):

@@ -46,7 +46,21 @@ class LagCandidate:
 
 
 class Profile:
-    """Training SSE per axis as a function of (τ_die, τ_rate), linear parameters projected out."""
+    """Training SSE per axis as a function of (τ_die, τ_rate), linear parameters projected out.
+
+    Parameters
+    ----------
+    log : ThermalLog
+        The whole temperature log (the lags run over it).
+    y : (n, 3) ndarray
+        Readings [g].
+    keep : (n,) ndarray of bool
+        Training rows.
+    degree : int
+        Polynomial degree in the die temperature.
+    reference_c : float
+        Expansion point [°C].
+    """
 
     def __init__(self, log: ThermalLog, y: np.ndarray, keep: np.ndarray, degree: int, reference_c: float):
         self.log, self.y, self.keep = log, y[keep], keep
@@ -54,6 +68,18 @@ class Profile:
         self._lags: dict[float, np.ndarray] = {}
 
     def lag(self, tau_s: float) -> np.ndarray:
+        """Lagged temperature ``lag(T, τ)`` [°C] of the whole log, cached (least recently used dropped).
+
+        Parameters
+        ----------
+        tau_s : float
+            Time constant [s].
+
+        Returns
+        -------
+        (n,) ndarray
+            Lagged temperature [°C].
+        """
         key = round(float(tau_s), 9)
         if key in self._lags:
             self._lags[key] = self._lags.pop(key)  # most recent last
@@ -64,7 +90,22 @@ class Profile:
         return self._lags[key]
 
     def design(self, tau_die_s: float, tau_rate_s: float | None, rows=slice(None)) -> np.ndarray:
-        """(n, degree + 1 [+ 1]) columns: (T_die − ref)/10 °C powers [+ (T − lag(T, τ_rate)) °C]."""
+        """(n, degree + 1 [+ 1]) columns: (T_die − ref)/10 °C powers [+ (T − lag(T, τ_rate)) °C].
+
+        Parameters
+        ----------
+        tau_die_s : float
+            Die lag [s].
+        tau_rate_s : float or None
+            Rate-term lag [s]; None or NaN: no rate column.
+        rows : slice or ndarray, optional
+            Rows returned.
+
+        Returns
+        -------
+        ndarray
+            The design matrix.
+        """
         cols = poly_columns(self.lag(tau_die_s)[rows] - self.reference_c, self.degree)
         if tau_rate_s is None or not np.isfinite(tau_rate_s):
             return cols
@@ -72,19 +113,58 @@ class Profile:
         return np.column_stack([cols, rate])
 
     def sse(self, tau_die_s: float, tau_rate_s: float | None) -> np.ndarray:
+        """Training residual sum of squares per axis [g²], floored above zero.
+
+        Parameters
+        ----------
+        tau_die_s, tau_rate_s : float, float or None
+            Die and rate-term lags [s].
+
+        Returns
+        -------
+        (3,) ndarray
+            SSE per axis [g²].
+        """
         F = self.design(tau_die_s, tau_rate_s, self.keep)
         coef, *_ = np.linalg.lstsq(F, self.y, rcond=None)
         # floored: an exact fit (a noise-free log) must not send log(SSE) to -inf in the scores
         return np.maximum(((self.y - F @ coef) ** 2).sum(axis=0), np.finfo(float).tiny * self.y.shape[0])
 
     def residual(self, tau_die_s: float, tau_rate_s: float | None) -> np.ndarray:
+        """Training residual per axis [g] at the given lags.
+
+        Parameters
+        ----------
+        tau_die_s, tau_rate_s : float, float or None
+            Die and rate-term lags [s].
+
+        Returns
+        -------
+        (n_train, 3) ndarray
+            Residual [g].
+        """
         F = self.design(tau_die_s, tau_rate_s, self.keep)
         coef, *_ = np.linalg.lstsq(F, self.y, rcond=None)
         return self.y - F @ coef
 
 
 def refine(objective, start: np.ndarray, bounds: list[tuple[float, float]]) -> np.ndarray:
-    """Bounded quasi-Newton polish of a grid optimum (τ in units of 10 s for the step sizes)."""
+    """Bounded quasi-Newton polish of a grid optimum (τ in units of 10 s for the step sizes).
+
+    Parameters
+    ----------
+    objective : callable
+        Function of the τ vector [s] to minimise.
+    start : ndarray
+        Grid optimum [s].
+    bounds : list of (float, float)
+        Bounds per τ [s].
+
+    Returns
+    -------
+    ndarray
+        The polished τ's [s] (``start`` when no better).
+    """
     # a log sampled more coarsely than the τ bound puts the least resolvable τ (twice the step) above
     # it: the interval collapses to that τ instead of inverting (L-BFGS-B refuses lower > upper)
     scaled = [(lo / 10.0, max(lo, hi) / 10.0) for lo, hi in bounds]
@@ -97,7 +177,18 @@ def refine(objective, start: np.ndarray, bounds: list[tuple[float, float]]) -> n
 
 
 def ar1_effective_n(residual: np.ndarray) -> np.ndarray:
-    """n·(1 − ρ)/(1 + ρ) per column, ρ the lag-1 autocorrelation (clipped to [0, 0.95])."""
+    """n·(1 − ρ)/(1 + ρ) per column, ρ the lag-1 autocorrelation (clipped to [0, 0.95]).
+
+    Parameters
+    ----------
+    residual : (n, k) ndarray
+        Residuals per column.
+
+    Returns
+    -------
+    (k,) ndarray
+        Effective sample size per column.
+    """
     r = residual - residual.mean(axis=0)
     power = np.maximum((r * r).sum(axis=0), np.finfo(float).tiny)  # a zero residual: ρ = 0, not NaN
     rho = np.clip((r[1:] * r[:-1]).sum(axis=0) / power, 0.0, 0.95)
@@ -106,7 +197,28 @@ def ar1_effective_n(residual: np.ndarray) -> np.ndarray:
 
 def search(profile: Profile, bounds_s: tuple[float, float], min_rate_tau_s: float, n_grid: int,
            share: str, rate_term) -> tuple[LagCandidate, tuple[LagCandidate, ...]]:
-    """Grid + refinement of every allowed structure; returns (selected by BIC, all candidates)."""
+    """Grid + refinement of every allowed structure; returns (selected by BIC, all candidates).
+
+    Parameters
+    ----------
+    profile : Profile
+        The training profile.
+    bounds_s : (float, float)
+        Range of τ [s].
+    min_rate_tau_s : float
+        Smallest rate-term τ [s].
+    n_grid : int
+        Grid points per τ.
+    share : {"auto", "shared", "per_axis"}
+        Structures tried.
+    rate_term : "auto" or bool
+        Whether the rate term is tried, forced or left out.
+
+    Returns
+    -------
+    (LagCandidate, tuple of LagCandidate)
+        The candidate with the lowest BIC, and all candidates.
+    """
     lo, hi = bounds_s
     die_grid = np.r_[lo if lo > 0 else 0.0, np.geomspace(max(lo, min_rate_tau_s), hi, n_grid)]
     rate_grid = np.geomspace(max(lo, min_rate_tau_s), hi, n_grid)
@@ -164,8 +276,22 @@ def covariance(profile: Profile, tau_d: np.ndarray, tau_g: np.ndarray, coef: lis
                shared: bool) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
     """Gauss–Newton covariance of all parameters (linear and τ's), AR(1)-inflated per axis.
 
-    Returns per-axis covariance of the linear coefficients, and standard errors [s] of
-    τ_die and τ_rate per axis (NaN where unused).
+    Parameters
+    ----------
+    profile : Profile
+        The training profile.
+    tau_d, tau_g : (3,) ndarray
+        Die and rate-term lags per axis [s] (NaN: no rate term).
+    coef : list of ndarray
+        Linear coefficients per axis.
+    shared : bool
+        Whether the τ's are shared by the axes.
+
+    Returns
+    -------
+    (lin_cov, se_die, se_rate) : list of ndarray, (3,) ndarray, (3,) ndarray
+        Per-axis covariance of the linear coefficients, and standard errors [s] of
+        τ_die and τ_rate per axis (NaN where unused).
     """
     keep, n = profile.keep, profile.y.shape[0]
     blocks = []

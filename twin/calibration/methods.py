@@ -175,7 +175,22 @@ class AsTheVehicleApplies(CompensatorBase):
         self.method = method
 
     def fit(self, X, y, mask=None):
-        """Fit the method on ``mask``'s rows and load its file as the vehicle would. Returns self."""
+        """Fit the method on ``mask``'s rows and load its file as the vehicle would. Returns self.
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+        y : (n, 3) array-like
+            Readings [g] or [rad/s].
+        mask : array-like of bool or int, optional
+            Rows to fit on.
+
+        Returns
+        -------
+        AsTheVehicleApplies
+            ``self``, fitted.
+        """
         fit_inputs(self, X, y, mask)  # records n_features_in_; the clone below checks the same input again
         self.inner_ = clone(self.method).fit(X, y, mask)
         cal = self.inner_.cal_
@@ -190,7 +205,18 @@ class AsTheVehicleApplies(CompensatorBase):
         return self
 
     def offset(self, X) -> np.ndarray:
-        """What the vehicle subtracts at each row, in the unit of ``y`` (n, 3)."""
+        """What the vehicle subtracts at each row, in the unit of ``y`` (n, 3).
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id (each run a boot).
+
+        Returns
+        -------
+        (n, 3) ndarray
+            Offset in the unit of ``y`` [g or rad/s].
+        """
         log = validated_log(self, X, reset=False)
         sensor, scale = self.method.sensor, UNIT[self.method.sensor][0]
         if isinstance(self.method, Px4Method):
@@ -203,6 +229,17 @@ class AsTheVehicleApplies(CompensatorBase):
                                          sensor=sensor).astype(float) / scale
 
     def predict(self, X) -> np.ndarray:
-        """The training level plus the offset the vehicle applies."""
+        """The training level plus the offset the vehicle applies.
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+
+        Returns
+        -------
+        (n, 3) ndarray
+            Modelled reading in the unit of ``y`` [g or rad/s].
+        """
         check_is_fitted(self)
         return self.level_g_ + self.offset(X)

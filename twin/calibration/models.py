@@ -33,6 +33,19 @@ class LinearFit:
 
     ``stderr`` is inflated by the AR(1) factor √((1 + ρ)/(1 − ρ)) of the residual's lag-1
     autocorrelation ρ, because residuals of real logs are not white.
+
+    Attributes
+    ----------
+    coef, stderr : (p,) ndarray
+        Coefficients and their standard errors [units of ``y`` per design column].
+    cov : (p, p) ndarray
+        Covariance of ``coef``.
+    sse : float
+        Residual sum of squares [units of ``y`` squared].
+    rho : float
+        Lag-1 autocorrelation of the residual (clipped to [0, 0.95]).
+    n : int
+        Rows fitted.
     """
 
     coef: np.ndarray
@@ -44,7 +57,20 @@ class LinearFit:
 
 
 def ols(F: np.ndarray, y: np.ndarray) -> LinearFit:
-    """Ordinary least squares ``y ≈ F·c`` with AR(1)-inflated standard errors."""
+    """Ordinary least squares ``y ≈ F·c`` with AR(1)-inflated standard errors.
+
+    Parameters
+    ----------
+    F : (n, p) ndarray
+        Design matrix.
+    y : (n,) ndarray
+        Observations (one axis).
+
+    Returns
+    -------
+    LinearFit
+        Coefficients, standard errors and residual statistics.
+    """
     coef, *_ = np.linalg.lstsq(F, y, rcond=None)
     r = y - F @ coef
     n, p = F.shape
@@ -56,18 +82,55 @@ def ols(F: np.ndarray, y: np.ndarray) -> LinearFit:
 
 
 def poly_columns(delta_c: np.ndarray, degree: int) -> np.ndarray:
-    """Design columns ``(ΔT / 10 °C)^k``, k = 0…degree."""
+    """Design columns ``(ΔT / 10 °C)^k``, k = 0…degree.
+
+    Parameters
+    ----------
+    delta_c : ndarray
+        Temperature minus the reference [°C].
+    degree : int
+        Highest power.
+
+    Returns
+    -------
+    (n, degree + 1) ndarray
+        The scaled powers [dimensionless].
+    """
     return np.vander(np.asarray(delta_c, float) / SCALE_C, degree + 1, increasing=True)
 
 
 def to_mg_per_c(coef_scaled_g: np.ndarray) -> np.ndarray:
-    """Coefficients of :func:`poly_columns` [g] → mg/°C^k."""
+    """Coefficients of :func:`poly_columns` [g] → mg/°C^k.
+
+    Parameters
+    ----------
+    coef_scaled_g : ndarray
+        Coefficients of the scaled columns [g], powers along the last axis.
+
+    Returns
+    -------
+    ndarray
+        The same coefficients [mg/°C^k].
+    """
     k = np.arange(coef_scaled_g.shape[-1])
     return coef_scaled_g * 1e3 / SCALE_C**k
 
 
 def poly_text(coef_mg: np.ndarray, variable: str) -> str:
-    """``a0 + a1·(v) + a2·(v)² …`` with values and units [mg]."""
+    """``a0 + a1·(v) + a2·(v)² …`` with values and units [mg].
+
+    Parameters
+    ----------
+    coef_mg : ndarray
+        Coefficients a_k [mg/°C^k], k = 0…degree.
+    variable : str
+        Text of the variable, e.g. ``"T − 35 °C"``.
+
+    Returns
+    -------
+    str
+        The polynomial as text.
+    """
     sup = {2: "²", 3: "³"}
     terms = [f"{coef_mg[0]:+.4g} mg"]
     for k, c in enumerate(coef_mg[1:], start=1):
@@ -94,7 +157,20 @@ class CompensatorBase(RegressorMixin, BaseEstimator):
         return tags
 
     def compensate(self, X, accel_g: np.ndarray) -> np.ndarray:
-        """``accel_g`` with the modelled thermal drift removed, keeping the level at the reference."""
+        """``accel_g`` with the modelled thermal drift removed, keeping the level at the reference.
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+        accel_g : (n, 3) ndarray
+            Readings [g].
+
+        Returns
+        -------
+        (n, 3) ndarray
+            Compensated readings [g].
+        """
         check_is_fitted(self)
         level = self.coef_mg_[:, 0] * 1e-3
         return np.asarray(accel_g, float) - (self.predict(X) - level)
@@ -136,7 +212,22 @@ class TemperaturePolynomial(CompensatorBase):
         self.degree = degree
 
     def fit(self, X, y, mask=None):
-        """Fit on the rows of ``mask`` (default: all rows with finite ``y``). Returns self."""
+        """Fit on the rows of ``mask`` (default: all rows with finite ``y``). Returns self.
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+        y : (n, 3) array-like
+            Readings [g].
+        mask : array-like of bool or int, optional
+            Rows to fit on.
+
+        Returns
+        -------
+        TemperaturePolynomial
+            ``self``, fitted.
+        """
         log, y, keep = fit_inputs(self, X, y, mask)
         dT, Y = log.temperature_c[keep] - self.reference_c, y[keep]
         top = self.degree if self.degree is not None else self.max_degree
@@ -168,13 +259,30 @@ class TemperaturePolynomial(CompensatorBase):
             self.coef_se_mg_[i, : d + 1] = to_mg_per_c(fit.stderr)
 
     def predict(self, X) -> np.ndarray:
-        """Modelled reading [g], (n, 3)."""
+        """Modelled reading [g], (n, 3).
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+
+        Returns
+        -------
+        (n, 3) ndarray
+            Modelled reading [g].
+        """
         dT = validated_log(self, X, reset=False).temperature_c - self.reference_c
         powers = np.vander(dT, self.coef_mg_.shape[1], increasing=True)
         return powers @ self.coef_mg_.T * 1e-3
 
     def equation(self) -> str:
-        """The fitted polynomials with values and units, one line per axis."""
+        """The fitted polynomials with values and units, one line per axis.
+
+        Returns
+        -------
+        str
+            One line per axis, coefficients in mg/°C^k.
+        """
         check_is_fitted(self)
         return "\n".join(
             f"{ax}: {poly_text(self.coef_mg_[i, : d + 1], f'T − {self.reference_c:g} °C')}"
@@ -194,7 +302,22 @@ class CubicCompensator(TemperaturePolynomial):
         self.reference_c = reference_c
 
     def fit(self, X, y, mask=None):
-        """Fit the three cubics. Returns self."""
+        """Fit the three cubics. Returns self.
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+        y : (n, 3) array-like
+            Readings [g].
+        mask : array-like of bool or int, optional
+            Rows to fit on.
+
+        Returns
+        -------
+        CubicCompensator
+            ``self``, fitted.
+        """
         log, y, keep = fit_inputs(self, X, y, mask)
         self.degree_ = np.full(3, 3)
         self.cv_rms_mg_ = np.full((3, 3), np.nan)

@@ -25,7 +25,19 @@ LABELS = FACE_LABELS
 
 @dataclass(frozen=True)
 class StaticSegment:
-    """Samples ``start:stop`` held still: their mean [g], spread [mg], temperature and direction."""
+    """Samples ``start:stop`` held still: their mean [g], spread [mg], temperature and direction.
+
+    Attributes
+    ----------
+    start, stop : int
+        Row range of the segment.
+    mean_g, std_mg : tuple of 3 floats
+        Per-axis mean [g] and standard deviation [mg].
+    temperature_c : float
+        Mean temperature [°C].
+    duration_s : float
+        Length [s].
+    """
 
     start: int
     stop: int
@@ -36,6 +48,7 @@ class StaticSegment:
 
     @property
     def direction(self) -> np.ndarray:
+        """Unit vector of ``mean_g`` [dimensionless]."""
         m = np.asarray(self.mean_g)
         return m / np.linalg.norm(m)
 
@@ -46,6 +59,17 @@ class Orientation:
 
     ``label`` is ``"+x"`` … ``"-z"`` when within the tolerance of a sensor axis, else ``"tilted"``;
     ``nominal_g`` is then the signed unit axis, else the measured direction.
+
+    Attributes
+    ----------
+    label : str
+        Face label or ``"tilted"``.
+    direction, nominal_g : tuple of 3 floats
+        Measured and nominal gravity direction [g, unit vector].
+    segments : tuple of int
+        Indices of its static segments.
+    temperatures_c : tuple of float
+        Mean temperature of each segment [°C].
     """
 
     label: str
@@ -57,7 +81,17 @@ class Orientation:
 
 @dataclass(frozen=True)
 class OrientationReport:
-    """Which orientations were found: ``kind`` is "six-position", "tumble" or "partial (k of 6)"."""
+    """Which orientations were found: ``kind`` is "six-position", "tumble" or "partial (k of 6)".
+
+    Attributes
+    ----------
+    kind : str
+        Kind of test.
+    orientations : tuple of Orientation
+        The clusters found.
+    found, missing : tuple of str
+        Axis-aligned face labels present and absent.
+    """
 
     kind: str
     orientations: tuple[Orientation, ...]
@@ -73,6 +107,10 @@ def detect_static_segments(time_s, accel_g, temperature_c=None, window_s: float 
 
     Parameters
     ----------
+    time_s, temperature_c : (n,) array-like
+        Sample times [s] and temperatures [°C] (``temperature_c`` optional: zero).
+    accel_g : (n, 3) array-like
+        Readings [g].
     window_s : float
         Moving window [s] for the standard deviation.
     max_std_mg : float, optional
@@ -82,6 +120,11 @@ def detect_static_segments(time_s, accel_g, temperature_c=None, window_s: float 
         Shorter still stretches are ignored (2 s after and before every move are cut first).
     max_span_c : float
         Segments spanning more temperature [°C] are cut, so one mean temperature describes each.
+
+    Returns
+    -------
+    list of StaticSegment
+        The segments, in time order.
     """
     t = np.asarray(time_s, float)
     a = np.asarray(accel_g, float)
@@ -95,7 +138,24 @@ def detect_static_segments(time_s, accel_g, temperature_c=None, window_s: float 
 def segments_of(quality: LogQuality, time_s, temperature_c, accel_g, min_duration_s: float = 10.0,
                 max_span_c: float = 2.0) -> list[StaticSegment]:
     """The static stretches of an assessed log as segments, each cut where it spans more than
-    ``max_span_c`` and kept when it still lasts ``min_duration_s``."""
+    ``max_span_c`` and kept when it still lasts ``min_duration_s``.
+
+    Parameters
+    ----------
+    quality : LogQuality
+        The assessed log.
+    time_s, temperature_c : (n,) array-like
+        Sample times [s] and temperatures [°C].
+    accel_g : (n, 3) array-like
+        Readings [g].
+    min_duration_s, max_span_c : float
+        Shortest segment kept [s]; widest temperature span of one segment [°C].
+
+    Returns
+    -------
+    list of StaticSegment
+        The segments, in time order.
+    """
     t, T, a = np.asarray(time_s, float), np.asarray(temperature_c, float), np.asarray(accel_g, float)
     out = []
     for stretch in quality.static_stretches():
@@ -119,7 +179,20 @@ def _cut_by_temperature(T: np.ndarray, s0: int, s1: int, span_c: float) -> list[
 
 def cluster_orientations(segments: list[StaticSegment], tol_deg: float = 10.0) -> OrientationReport:
     """Group segments whose gravity directions lie within ``tol_deg`` and name the orientations
-    (the log-quality stage's clustering, :func:`twin.measurement.quality.cluster_directions`)."""
+    (the log-quality stage's clustering, :func:`twin.measurement.quality.cluster_directions`).
+
+    Parameters
+    ----------
+    segments : list of StaticSegment
+        The static segments.
+    tol_deg : float
+        Clustering tolerance [°].
+
+    Returns
+    -------
+    OrientationReport
+        The orientations and the kind of test.
+    """
     clusters = cluster_directions([s.direction for s in segments], tol_deg)
     found = []
     for c, (d, label) in enumerate(zip(clusters.directions, clusters.labels)):
@@ -166,7 +239,24 @@ class OffsetScaleFit:
 
 def fit_offset_scale(segments: list[StaticSegment], report: OrientationReport, degree: int = 1,
                      reference_c: float = 25.0) -> OffsetScaleFit:
-    """Least squares per axis over the static segments' means (one row per segment)."""
+    """Least squares per axis over the static segments' means (one row per segment).
+
+    Parameters
+    ----------
+    segments : list of StaticSegment
+        The static segments.
+    report : OrientationReport
+        Their orientations (nominal gravity per segment).
+    degree : int
+        Degree of s(T) and o(T).
+    reference_c : float
+        Expansion point [°C].
+
+    Returns
+    -------
+    OffsetScaleFit
+        Scale factor [ppm/°C^k] and offset [mg/°C^k] per axis, with intervals.
+    """
     g_true = np.zeros((len(segments), 3))
     for o in report.orientations:
         g_true[list(o.segments)] = o.nominal_g
@@ -199,7 +289,24 @@ def fit_offset_scale(segments: list[StaticSegment], report: OrientationReport, d
 
 def six_position(time_s, accel_g, temperature_c, degree: int = 1, reference_c: float = 25.0,
                  tol_deg: float = 10.0, **detect) -> tuple[OrientationReport, OffsetScaleFit]:
-    """Detect, cluster and fit in one call (``detect``: keywords of :func:`detect_static_segments`)."""
+    """Detect, cluster and fit in one call (``detect``: keywords of :func:`detect_static_segments`).
+
+    Parameters
+    ----------
+    time_s, temperature_c : (n,) array-like
+        Sample times [s] and temperatures [°C].
+    accel_g : (n, 3) array-like
+        Readings [g].
+    degree, reference_c, tol_deg
+        As in :func:`fit_offset_scale` [°C] and :func:`cluster_orientations` [°].
+    **detect
+        Keywords of :func:`detect_static_segments`.
+
+    Returns
+    -------
+    (OrientationReport, OffsetScaleFit)
+        The orientations found and the offset/scale fit.
+    """
     segments = detect_static_segments(time_s, accel_g, temperature_c, **detect)
     if not segments:
         raise TwinError("no static segment found: lower window_s/min_duration_s or raise max_std_mg")

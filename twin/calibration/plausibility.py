@@ -51,7 +51,20 @@ class PlausibilityLimits:
 
 
 def limits_for_part(part_name: str = DEFAULT_PART, tau_max_s: float = 600.0) -> PlausibilityLimits:
-    """Limits ``FAR`` × the part's typical TCOff and TCSo (``twin parts`` lists them)."""
+    """Limits ``FAR`` × the part's typical TCOff and TCSo (``twin parts`` lists them).
+
+    Parameters
+    ----------
+    part_name : str
+        A part ``twin parts`` lists, with datasheet TCOff and TCSo.
+    tau_max_s : float
+        Upper search bound of the lag time constants [s].
+
+    Returns
+    -------
+    PlausibilityLimits
+        The limits [mg/°C, ppm/°C, s] and their source.
+    """
     from twin.parts import load_part
 
     part = load_part(part_name)
@@ -66,7 +79,24 @@ def limits_for_part(part_name: str = DEFAULT_PART, tau_max_s: float = 600.0) -> 
 
 def static_curve_mg(correction_g, data: dict, span_c: tuple[float, float], n: int = 64) -> tuple[np.ndarray, np.ndarray]:
     """(temperatures [°C], correction [mg] (n, 3)) of a method held at each temperature long enough
-    for every lag to settle: the static offset curve the fit claims."""
+    for every lag to settle: the static offset curve the fit claims.
+
+    Parameters
+    ----------
+    correction_g : callable
+        ``correction_g(data, time_s, temperature_c) → (n, 3) g``.
+    data : dict
+        The method as the document stores it.
+    span_c : (float, float)
+        Temperature span [°C].
+    n : int
+        Temperatures evaluated.
+
+    Returns
+    -------
+    (temperature_c, curve_mg) : (n,) ndarray, (n, 3) ndarray
+        Temperatures [°C] and the settled correction [mg].
+    """
     temperature_c = np.linspace(span_c[0], span_c[1], n)
     settled_time_s = np.arange(n) * 1e7  # ≫ any τ: the lags equal T and the rate term vanishes
     if data.get("kind") == "ComposedCompensator":  # effects of time alone (aging, warm-up) are no curve in T
@@ -92,6 +122,11 @@ def method_flags(name: str, data: dict, correction_g, span_c: tuple[float, float
     span_c : (float, float)
         Calibrated temperature span [°C].
     limits : PlausibilityLimits
+
+    Returns
+    -------
+    list of str
+        One reason per implausible feature (τ [s], level [g], slope [mg/°C]).
     """
     flags = []
     values = [v for key in ("coef_mg", "level_g", "rate_mg_per_c") for v in np.ravel(data.get(key) or [])]
@@ -126,7 +161,22 @@ def method_flags(name: str, data: dict, correction_g, span_c: tuple[float, float
 
 
 def rate_bound_notes(name: str, data: dict, limits: PlausibilityLimits) -> list[str]:
-    """Notes on rate terms whose time constant ran to the search bound: the data do not fix τ_rate."""
+    """Notes on rate terms whose time constant ran to the search bound: the data do not fix τ_rate.
+
+    Parameters
+    ----------
+    name : str
+        Method name.
+    data : dict
+        The method as the document stores it.
+    limits : PlausibilityLimits
+        Holds the search bound ``tau_max_s`` [s].
+
+    Returns
+    -------
+    list of str
+        One note per such axis.
+    """
     return [f"{name} {axis}: τ_rate {tau:.0f} s is on its {limits.tau_max_s:g} s search bound: the data do not fix "
             "it, so the rate term stands only as far as the held-out folds that both heat and cool support it"
             for axis, tau in zip(AXES, data.get("tau_rate_s") or [])
@@ -134,7 +184,20 @@ def rate_bound_notes(name: str, data: dict, limits: PlausibilityLimits) -> list[
 
 
 def tcso_flags(orientations: dict, limits: PlausibilityLimits) -> list[str]:
-    """Flags on the scale-factor tempcos of a several-orientation calibration (None = not identifiable)."""
+    """Flags on the scale-factor tempcos of a several-orientation calibration (None = not identifiable).
+
+    Parameters
+    ----------
+    orientations : dict
+        The orientation summary (``tcso_ppm_per_c`` per axis [ppm/°C]).
+    limits : PlausibilityLimits
+        Holds ``tcso_ppm_per_c`` [ppm/°C].
+
+    Returns
+    -------
+    list of str
+        One flag per axis beyond the limit.
+    """
     flags = []
     for axis, entry in orientations.get("tcso_ppm_per_c", {}).items():
         value = entry.get("value")

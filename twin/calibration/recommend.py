@@ -59,7 +59,21 @@ class Verdict:
 
 @dataclass(frozen=True)
 class Recommendation:
-    """The default method and why, with every candidate's verdict."""
+    """The default method and why, with every candidate's verdict.
+
+    Attributes
+    ----------
+    method : str or None
+        The default method (None: none).
+    reason : str
+        Why.
+    verdicts : tuple of Verdict
+        Every candidate's verdict.
+    cubic_rms_mg : tuple of 3 floats or None
+        The cubic on the default's folds, pooled [mg].
+    reference : str or None
+        The cubic's method name.
+    """
 
     method: str | None
     reason: str
@@ -68,7 +82,13 @@ class Recommendation:
     reference: str | None = None  # the cubic's method name
 
     def custom_firmware_gain(self) -> str | None:
-        """What only custom firmware removes: the default against the cubic PX4 and ArduPilot run."""
+        """What only custom firmware removes: the default against the cubic PX4 and ArduPilot run.
+
+        Returns
+        -------
+        str or None
+            Held-out RMS [mg] of both and the change [%]; None when the default is the cubic.
+        """
         mine = next((v for v in self.verdicts if v.method == self.method), None)
         if mine is None or mine.rms_mg is None or self.cubic_rms_mg is None or self.method == self.reference:
             return None
@@ -80,7 +100,20 @@ class Recommendation:
 
 
 def validating_folds(protocol: Protocol, rate_dependent: bool) -> tuple[str, ...]:
-    """Folds that can validate a method: all of them for a static one, two-direction ones otherwise."""
+    """Folds that can validate a method: all of them for a static one, two-direction ones otherwise.
+
+    Parameters
+    ----------
+    protocol : Protocol
+        The validation protocol.
+    rate_dependent : bool
+        Whether the method has thermal state.
+
+    Returns
+    -------
+    tuple of str
+        Fold names.
+    """
     return tuple(f.name for f in protocol.folds if f.both_directions or not rate_dependent)
 
 
@@ -107,6 +140,11 @@ def recommend(validation: ValidationResult, protocol: Protocol, candidates: list
         the device was made, say). When one of them beats every candidate held out, the log holds
         something the candidates absorbed into their thermal terms; that does not carry to another
         day, so the default is the cubic.
+
+    Returns
+    -------
+    Recommendation
+        The default method, why, and every candidate's verdict (RMS in mg).
     """
     scored = set(validation.methods)
     if reference not in scored:

@@ -26,7 +26,19 @@ MIN_IN_RANGE = 30  # fewer in-range samples than this score no "in range" test
 
 @dataclass(frozen=True)
 class Score:
-    """Held-out RMS of one method on one test set (``test == "overall"``: the fold's tests pooled)."""
+    """Held-out RMS of one method on one test set (``test == "overall"``: the fold's tests pooled).
+
+    Attributes
+    ----------
+    fold, method, test : str
+        Fold, method and test set.
+    rms_mg : tuple of 3 floats
+        Held-out RMS per axis [mg].
+    n : int
+        Samples scored.
+    extrapolated_fraction : float
+        Share of samples outside the training temperatures [0–1].
+    """
 
     fold: str
     method: str
@@ -60,10 +72,24 @@ class ValidationResult:
 
     @property
     def methods(self) -> list[str]:
+        """Names of the methods scored, in first-seen order."""
         return list(dict.fromkeys(s.method for s in self.scores))
 
     def rms_mg(self, method: str, test: str = "overall", fold: str | tuple[str, ...] | None = None) -> np.ndarray:
-        """RMS [mg] per axis of ``method`` on ``test``, pooled over every fold, the folds named, or one."""
+        """RMS [mg] per axis of ``method`` on ``test``, pooled over every fold, the folds named, or one.
+
+        Parameters
+        ----------
+        method, test : str
+            Method and test set.
+        fold : str or tuple of str, optional
+            One fold or several (default: all).
+
+        Returns
+        -------
+        (3,) ndarray
+            Pooled RMS [mg].
+        """
         folds = (fold,) if isinstance(fold, str) else fold
         hits = [s for s in self.scores if s.method == method and s.test == test and (folds is None or s.fold in folds)]
         if not hits:
@@ -72,7 +98,18 @@ class ValidationResult:
         return np.sqrt(sse / sum(s.n for s in hits))
 
     def table(self, reference: str | None = None) -> str:
-        """Text table: RMS [mg] per axis, per method, per test set; ``reference`` adds % below it."""
+        """Text table: RMS [mg] per axis, per method, per test set; ``reference`` adds % below it.
+
+        Parameters
+        ----------
+        reference : str, optional
+            Method to compare against.
+
+        Returns
+        -------
+        str
+            The table.
+        """
         lines = []
         for fold in dict.fromkeys(s.fold for s in self.scores):
             tests = list(dict.fromkeys(s.test for s in self.scores if s.fold == fold))

@@ -90,7 +90,12 @@ class GyroCalibration:
     flags: dict
 
     def recommended(self) -> dict[str, str | None]:
-        """Per firmware, its own method unless flagged."""
+        """Per firmware, its own method unless flagged.
+
+        Returns
+        -------
+        dict of str to str or None
+        """
         return {t: (t if t in self.fitted and not self.flags.get(t) else None) for t in ("px4", "ardupilot")}
 
 
@@ -122,7 +127,12 @@ class ImuCalibration:
 
     def recommended(self) -> dict[str, str | None]:
         """Per target firmware: PX4 and ArduPilot their own method unless flagged; custom C (and
-        ``twin apply``) the method :func:`twin.calibration.recommend.recommend` chose."""
+        ``twin apply``) the method :func:`twin.calibration.recommend.recommend` chose.
+
+        Returns
+        -------
+        dict of str to str or None
+        """
         flags = self.flags or {}
         out = {t: (t if t in self.fitted and not flags.get(t) else None) for t in ("px4", "ardupilot")}
         out["c"] = self.recommendation.method if self.recommendation else None
