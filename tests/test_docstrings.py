@@ -22,7 +22,7 @@ CHECKED = [ROOT / "sim", ROOT / "fitting", *(ROOT / "twin" / m for m in (
     "effects", "model", "measurement", "firmware", "parts",
     "finding", "diagnosis", "estimation", "discovery", "datasets", "workflows",
     "reporting",
-    "studies", "compensation", "cli",
+    "studies", "compensation", "cli", "calibration",
     "fleet",
 ))]
 

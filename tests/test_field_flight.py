@@ -313,7 +313,8 @@ def test_an_implausible_fit_is_flagged_not_recommended_and_not_exported_without_
 
 @pytest.mark.parametrize("instance", [-1, 4, 300])
 def test_calibrate_refuses_an_imu_instance_no_firmware_has(instance):
-    from twin.calibration.workflow import CalibrationInputError, calibrate_imu
+    from twin.calibration.instances import CalibrationInputError
+    from twin.calibration.workflow import calibrate_imu
     from twin.measurement import ImuLog
 
     imu = chamber_run(n=400, rate_hz=1.0, seed=7)[0]
@@ -392,7 +393,8 @@ def _chamber_log(instance=0, **changes):
     ({"accel_g": "zero"}, r"acceleration median \|a\| 0 g; expected about 1 g"),
 ])
 def test_calibrate_refuses_temperatures_not_in_celsius_and_logs_without_gravity(change, fragment):
-    from twin.calibration.workflow import CalibrationInputError, calibrate_imu
+    from twin.calibration.instances import CalibrationInputError
+    from twin.calibration.workflow import calibrate_imu
 
     log = _chamber_log()
     values = {"kelvin": log.temperature_c + 273.15, "zero": np.zeros_like(log.accel_g)}

@@ -19,7 +19,7 @@ from twin.calibration.correction import CalibrationDocumentError, correction_g
 from twin.calibration.correction import firmware_cal as _firmware_cal
 from twin.calibration.document import SCHEMA, SCHEMA_VERSION
 from twin.calibration.plausibility import limits_for_part, method_flags
-from twin.calibration.workflow import MAX_DEVICE_ID, PX4_INSTANCES
+from twin.calibration.instances import MAX_DEVICE_ID, PX4_INSTANCES
 from twin.errors import TwinError
 from twin.firmware import (
     ArduPilotAccelCal,

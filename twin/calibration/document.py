@@ -48,7 +48,8 @@ from twin.results import PerAxis, to_json
 
 if TYPE_CHECKING:
     from twin.calibration.recommend import Recommendation
-    from twin.calibration.workflow import GyroCalibration, ImuCalibration
+    from twin.calibration.gyro import GyroCalibration
+    from twin.calibration.workflow import ImuCalibration
 
 SCHEMA = "tde-twin calibration"
 SCHEMA_VERSION = 1

@@ -16,14 +16,15 @@ from sklearn.base import clone
 from twin.calibration.branches import protocol_as_used
 from twin.calibration.composed import ComposedCompensator, composed_notes
 from twin.calibration.correction import correction_g
-from twin.calibration.document import AS_APPLIED, method_json
+from twin.calibration.document import method_json
+from twin.calibration.gyro import GyroCalibration, as_applied, calibrate_gyro
+from twin.calibration.instances import (
+    ARDUPILOT_INSTANCES, CalibrationInputError, check_calibration_instance, check_device_id,
+)
 from twin.calibration.lag import make_X
 from twin.calibration.lagaware import LagAwareCompensator
 from twin.calibration.methods import (
-    ArduPilotGyroMethod,
     ArduPilotMethod,
-    AsTheVehicleApplies,
-    Px4GyroMethod,
     Px4Method,
 )
 from twin.calibration.models import AXES, TemperaturePolynomial
@@ -39,9 +40,6 @@ from twin.calibration.recommend import Recommendation, recommend
 from twin.calibration.validate import ValidationResult, validate
 from twin.errors import TwinError
 from twin.firmware import CalibrationRangeError
-from twin.firmware.ardupilot import AP_INSTANCES
-from twin.firmware.common import DEVICE_ID_MAX
-from twin.firmware.px4 import PX4_INSTANCES as PX4_SLOTS
 from twin.measurement import ImuLog, usable_for_calibration
 from twin.measurement.imu import MIN_SAMPLES, MIN_TEMPERATURE_RANGE_C
 from twin.measurement.log_quality import LogQuality, LogQualityError, QualitySettings
@@ -49,59 +47,49 @@ from twin.measurement.quality import assess_log
 
 # what custom C (and twin apply by default) can run; PX4 and ArduPilot run only their own polynomial
 C_CANDIDATES = ("twin", "polynomial", "px4", "ardupilot")
-# the instances each firmware has: PX4 TC_A0..TC_A3 (TemperatureCompensation.h, ACCEL_COUNT_MAX 4),
-# ArduPilot INS_TCAL1..INS_TCAL3 (INS_MAX_INSTANCES 3) for IMU instances 0..2
-PX4_INSTANCES = range(PX4_SLOTS)
-ARDUPILOT_INSTANCES = range(AP_INSTANCES[1])  # IMU instance n → INS_TCAL{n + 1}
-MAX_DEVICE_ID = DEVICE_ID_MAX  # device ids are uint32 in both firmwares
-# a still MEMS gyro: zero-rate offset within a few °/s and a bias tempco of a few hundredths of
-# °/s per °C (e.g. ±0.05 °/s/°C class parts); ten times those is not temperature drift
-GYRO_MAX_BIAS_RAD_S = np.radians(10.0)
-GYRO_MAX_SLOPE_RAD_S_PER_C = np.radians(0.5)
 MULTI_POSITION_FACES = 3  # this many faces in one log make a six-position or tumble test
 MIN_MEDIAN_NORM_G = 0.25  # below this median |a| the log holds no gravity: not raw accelerometer readings
 COMPARED = "compared"  # the method composing, per axis, the effects twin compare named
 MIN_STATIC_S = 60.0  # a calibration needs at least a minute of still rows (and MIN_TEMPERATURE_RANGE_C of span)
 
 
-class CalibrationInputError(TwinError):
-    """A log cannot be calibrated: too short, too narrow in temperature, NaN or frozen temperature."""
-
-
 @dataclass(frozen=True, eq=False)
-class GyroCalibration:
-    """The gyro of one IMU: the firmware methods fitted on its still rows and validated held out.
+class ImuCalibration:
+    """One IMU: its data summary, the validation table, and every method fitted on all of its data.
 
     Attributes
     ----------
-    device_id : int or None
-        The gyro's device id (PX4 ``TC_Gn_ID``).
+    instance, device_id : int, int or None
+        The IMU instance and its accelerometer's device id.
+    sources : tuple of str
+        The logs.
+    samples : int
+        Rows fitted.
+    temperature_span_c : tuple of float
+        Their temperature span [°C].
+    sample_rate_hz : float
+        [Hz].
+    protocol : str
+        The held-out protocol (see :mod:`twin.calibration.branches`).
     validation : ValidationResult
-        Held-out RMS in mrad/s (the ``_mg`` figures are thousandths of the unit: rad/s here).
-    fitted : dict
-        Method name → estimator fitted on every row.
-    flags : dict
-        Method name → why it is implausible.
+    fitted : dict of str to estimator
+        Method name → estimator fitted on every usable row.
+    orientations : dict, optional
+        With several orientations: which, and offset and scale factor against temperature.
+    flags : dict of str to list of str, optional
+        Method name → why it is implausible (absent or empty: plausible).
+    notes : tuple of str
+    gyro : GyroCalibration, optional
+        When the logs hold this IMU's gyro.
+    quality : tuple of LogQuality
+        Per log: which rows were still and used, what was excluded and why.
+    board_orientation : int, optional
+        ArduPilot ``AHRS_ORIENTATION`` of the logs (IMU messages rotated by it).
+    recommendation : Recommendation, optional
+        The default of ``twin apply`` and the C export, and why.
+    fold_directions : tuple of (str, bool)
+        Per fold: whether its training rows both heat and cool.
     """
-
-    device_id: int | None
-    validation: ValidationResult
-    fitted: dict
-    flags: dict
-
-    def recommended(self) -> dict[str, str | None]:
-        """Per firmware, its own method unless flagged.
-
-        Returns
-        -------
-        dict of str to str or None
-        """
-        return {t: (t if t in self.fitted and not self.flags.get(t) else None) for t in ("px4", "ardupilot")}
-
-
-@dataclass(frozen=True, eq=False)
-class ImuCalibration:
-    """One IMU: its data summary, the validation table, and every method fitted on all of its data."""
 
     instance: int
     device_id: int | None
@@ -111,18 +99,28 @@ class ImuCalibration:
     sample_rate_hz: float
     protocol: str
     validation: ValidationResult
-    fitted: dict  # method name → estimator fitted on every sample
-    orientations: dict | None = None  # several orientations found: which, and offset + scale factor vs T
-    flags: dict | None = None  # method name → why it is implausible (absent or empty: plausible)
+    fitted: dict
+    orientations: dict | None = None
+    flags: dict | None = None
     notes: tuple[str, ...] = ()
-    gyro: GyroCalibration | None = None  # when the logs have this IMU's gyro
-    quality: tuple[LogQuality, ...] = ()  # per log: which rows were still and used, what was excluded and why
-    board_orientation: int | None = None  # ArduPilot AHRS_ORIENTATION of the logs (IMU messages rotated by it)
-    recommendation: Recommendation | None = None  # the default of apply and the C export, and why
-    fold_directions: tuple[tuple[str, bool], ...] = ()  # per fold: does its training both heat and cool
+    gyro: GyroCalibration | None = None
+    quality: tuple[LogQuality, ...] = ()
+    board_orientation: int | None = None
+    recommendation: Recommendation | None = None
+    fold_directions: tuple[tuple[str, bool], ...] = ()
 
     def heldout_rms_mg(self, method: str) -> np.ndarray:
-        """Held-out RMS [mg] per axis of ``method``, pooled over folds and test branches."""
+        """Held-out RMS [mg] per axis of ``method``, pooled over folds and test branches.
+
+        Parameters
+        ----------
+        method : str
+
+        Returns
+        -------
+        ndarray
+            (3,) [mg].
+        """
         return self.validation.rms_mg(method)
 
     def recommended(self) -> dict[str, str | None]:
@@ -171,6 +169,15 @@ def one_attitude_per_face(quality: LogQuality) -> LogQuality:
     (then the longest) — and the others are excluded with the reason; a log holding
     :data:`MULTI_POSITION_FACES` faces or more is a six-position or tumble test, fitted with one
     attitude or more per face (orientation calibration: a fixture revisits its faces) and no tilted one.
+
+    Parameters
+    ----------
+    quality : LogQuality
+
+    Returns
+    -------
+    LogQuality
+        With the other attitudes' stretches excluded, and why.
     """
     groups = quality.attitudes()
     if len(groups) <= 1:
@@ -191,6 +198,20 @@ def one_attitude_per_face(quality: LogQuality) -> LogQuality:
 def still_rows(qualities: tuple[LogQuality, ...], min_static_s: float = MIN_STATIC_S,
                min_span_c: float = MIN_TEMPERATURE_RANGE_C) -> np.ndarray:
     """The rows (all logs concatenated) a calibration may fit: the usable static stretches.
+
+    Parameters
+    ----------
+    qualities : tuple of LogQuality
+        One per log.
+    min_static_s : float
+        Least still time [s].
+    min_span_c : float
+        Least temperature span of those rows [°C].
+
+    Returns
+    -------
+    ndarray of bool
+        Per row of the concatenated logs.
 
     Raises
     ------
@@ -215,25 +236,21 @@ def still_rows(qualities: tuple[LogQuality, ...], min_static_s: float = MIN_STAT
     return np.concatenate([q.usable_static for q in qualities])
 
 
-def check_calibration_instance(instance: int, where: str) -> None:
-    """An IMU instance some firmware has a calibration slot for (PX4 0..3, ArduPilot 0..2 → INS_TCAL1..3)."""
-    if instance not in PX4_INSTANCES:
-        raise CalibrationInputError(f"{where}: IMU instance {instance}; PX4 has TC_A0..TC_A3 and ArduPilot "
-                                    "INS_TCAL1..INS_TCAL3, so expected an instance 0..3")
-
-
-def check_device_id(device_id, where: str) -> int | None:
-    """A device id as both firmwares hold it (uint32), or None when unknown."""
-    if device_id is None:
-        return None
-    if isinstance(device_id, bool) or not isinstance(device_id, (int, np.integer)) or not 0 <= device_id <= MAX_DEVICE_ID:
-        raise CalibrationInputError(f"{where}: device id {device_id!r}; expected an integer 0..{MAX_DEVICE_ID} (uint32)")
-    return int(device_id) or None  # 0 is the firmware's "no device"
-
-
 def methods_for(instance: int, device_id: int | None, extra: dict | None = None) -> dict:
     """The methods compared: PX4, ArduPilot (when the firmware has the instance), held-out
-    polynomial, lag-aware twin, plus ``extra``."""
+    polynomial, lag-aware twin, plus ``extra``.
+
+    Parameters
+    ----------
+    instance : int
+    device_id : int or None
+    extra : dict of str to estimator, optional
+
+    Returns
+    -------
+    dict of str to estimator
+        Unfitted.
+    """
     models = {"px4": Px4Method(instance=instance, device_id=int(device_id or 0))}
     if instance in ARDUPILOT_INSTANCES:
         models["ardupilot"] = ArduPilotMethod(instance=instance + 1)
@@ -257,6 +274,10 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
         What a plausible fit may hold (default: :func:`limits_for_part`).
     settings : QualitySettings, optional
         What counts as still, a gap, a fault (default: :class:`QualitySettings`).
+
+    Returns
+    -------
+    ImuCalibration
 
     Raises
     ------
@@ -347,47 +368,6 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
                           recommendation, tuple((f.name, f.both_directions) for f in protocol.folds))
 
 
-def as_applied(models: dict) -> dict:
-    """The firmware methods again, scored as the vehicle applies the file written for them."""
-    return {f"{name}{AS_APPLIED}": AsTheVehicleApplies(est) for name, est in models.items()
-            if isinstance(est, (Px4Method, ArduPilotMethod))}
-
-
-def calibrate_gyro(log: ImuLog, X: np.ndarray, gyro_rad_s: np.ndarray, protocol, run=None) -> GyroCalibration:
-    """The gyro's temperature calibration by the PX4 and ArduPilot methods, validated like the accelerometer's.
-
-    On the same rows and folds as the accelerometer (the gyro shares the IMU's die and thermometer).
-    """
-    device = check_device_id(log.gyro_device_id, f"{log.source} instance {log.instance} gyro")
-    models = {"px4": Px4GyroMethod(instance=log.instance, device_id=int(device or 0))}
-    if log.instance in ARDUPILOT_INSTANCES:
-        models["ardupilot"] = ArduPilotGyroMethod(instance=log.instance + 1)
-    validation = validate({**models, **as_applied(models)}, X[:, 0], X[:, 1], gyro_rad_s, protocol, run=run)
-    fitted = {name: clone(est).fit(X, gyro_rad_s) for name, est in models.items()}
-    span = (float(X[:, 1].min()), float(X[:, 1].max()))
-    flags = {name: gyro_flags(name, est, span) for name, est in fitted.items()}
-    return GyroCalibration(device, validation, fitted, flags)
-
-
-def gyro_flags(name: str, est, span_c: tuple[float, float]) -> list[str]:
-    """Why a gyro fit is implausible: a bias slope or a level a still MEMS gyro does not have."""
-    temperature_c = np.linspace(*span_c, 64)
-    curve = est.cal_.offset(temperature_c)
-    flags = []
-    if not np.all(np.isfinite(curve)):
-        return [f"gyro {name}: correction not finite over {span_c[0]:.1f}..{span_c[1]:.1f} °C"]
-    slope = np.max(np.abs(np.gradient(curve, temperature_c, axis=0)), axis=0)
-    level = np.abs(np.asarray(est.level_g_) + curve.mean(axis=0))
-    for axis, s, g in zip(AXES, slope, level):
-        if s > GYRO_MAX_SLOPE_RAD_S_PER_C:
-            flags.append(f"gyro {name} {axis}: bias slope up to {np.degrees(s):.2f} °/s/°C, beyond "
-                         f"{np.degrees(GYRO_MAX_SLOPE_RAD_S_PER_C):.2f} °/s/°C")
-        if g > GYRO_MAX_BIAS_RAD_S:
-            flags.append(f"gyro {name} {axis}: bias {np.degrees(g):.1f} °/s; a still MEMS gyro's zero-rate "
-                         f"offset is within about ±{np.degrees(GYRO_MAX_BIAS_RAD_S):.0f} °/s")
-    return flags
-
-
 def orientation_calibration(time_s, temperature_c, accel_g, quality: LogQuality):
     """Orientations found in a log, and per axis offset(T) and scale factor(T) from its static segments.
 
@@ -395,6 +375,18 @@ def orientation_calibration(time_s, temperature_c, accel_g, quality: LogQuality)
     the nominal gravity of every row, zero off those rows): the firmware methods and the twin are then
     fitted on the static rows with gravity removed, so what they leave is the scale factor they do
     not model.
+
+    Parameters
+    ----------
+    time_s, temperature_c : ndarray
+        [s], [°C].
+    accel_g : ndarray
+        (n, 3) [g].
+    quality : LogQuality
+
+    Returns
+    -------
+    tuple of (dict, ndarray of bool, ndarray) or None
     """
     segments = segments_of(quality, time_s, temperature_c, accel_g)
     report = cluster_orientations(segments) if segments else None
@@ -427,6 +419,12 @@ def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[li
 
     ``compared`` (instance → axis → effect names, as ``twin compare`` named them) adds a method
     :data:`COMPARED` composing those effects per axis, validated beside the others.
+
+    Parameters
+    ----------
+    per_instance : dict of int to list of ImuLog
+    **options
+        Passed to :func:`calibrate_imu` (``compared`` taken per instance).
 
     Returns
     -------
