@@ -153,6 +153,26 @@ def run_discovery(d: Diagnosis, plugin_path: Path | None, sources: list[str]) ->
     return disc, str(plugin_path)
 
 
+def finished_result(d: Diagnosis, discover: bool, plugin_path: Path | None, sources: list[str]) -> CompareResult:
+    """The result of a diagnosis, after the discovery when asked (and its plugin written).
+
+    Parameters
+    ----------
+    d : Diagnosis
+    discover : bool
+    plugin_path : Path, optional
+        Where a proposed term is written.
+    sources : list of str
+        Measurement files, quoted in the plugin.
+
+    Returns
+    -------
+    CompareResult
+    """
+    disc, written = run_discovery(d, plugin_path, sources) if discover else (None, None)
+    return compare_result(d, disc, written)
+
+
 def compare_measurement(loaded: LoadedScenario, m: Measurement, with_effects: list[str], average_s: float = 10.0,
                         discover: bool = False, plugin_path: Path | None = None
                         ) -> tuple[Diagnosis, CompareResult]:
@@ -178,8 +198,7 @@ def compare_measurement(loaded: LoadedScenario, m: Measurement, with_effects: li
     result : CompareResult
     """
     d = diagnose_measurement(loaded, m, with_effects, average_s)
-    disc, written = run_discovery(d, plugin_path, list(m.sources)) if discover else (None, None)
-    return d, compare_result(d, disc, written)
+    return d, finished_result(d, discover, plugin_path, list(m.sources))
 
 
 def imu_result(axd: AxisDiagnoses, results: dict[str, CompareResult]) -> ImuCompareResult:

@@ -101,14 +101,10 @@ def _compare(unit: dict, settings: dict, unit_dir: Path, rel: str) -> FleetRow:
                         "effects": list(refit.effects), "parameters": to_json(refit.parameters)}
     html = None
     if opt["report"]:
-        from dataclasses import replace
+        from twin.reporting.compare_report import ledger_and_report
 
-        from twin.reporting.compare_report import write_report
-        from twin.finding.ledger import append_ledger
-
-        lines, entries = append_ledger(unit_dir, d, result)
-        doc["ledger"] = to_json(entries)
-        write_report(unit_dir, d, replace(result, ledger=entries), lines, title=f"twin fleet: unit {unit['unit']}")
+        recorded = ledger_and_report(unit_dir, unit_dir, d, result, f"twin fleet: unit {unit['unit']}")
+        doc["ledger"] = to_json(recorded.ledger)
         html = f"{rel}/report.html"
     atomic_write_text(unit_dir / "compare.json", json.dumps(strict_json(doc), indent=1) + "\n")
     floor = result.noise_floor_g

@@ -8,9 +8,11 @@ deviation against a noise-only reference, the ranking, and the error falling ove
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from twin.finding.ledger import append_ledger
 from twin.finding.result import CompareResult
 from twin.reporting.page import Page
 
@@ -24,6 +26,30 @@ def _figures(d: Diagnosis, ledger: list[dict]) -> list[tuple[str, str]]:
     from twin.reporting.plots import png_base64
 
     return [(disp.title, png_base64(disp.plot())) for disp in diagnosis_displays(d, ledger)]
+
+
+def ledger_and_report(ledger_dir: Path, report_dir: Path | None, d: Diagnosis, result: CompareResult,
+                      title: str) -> CompareResult:
+    """Append this model to the ledger in ``ledger_dir`` and (``report_dir`` given) write the report.
+
+    Parameters
+    ----------
+    ledger_dir : Path
+    report_dir : Path, optional
+    d : Diagnosis
+    result : CompareResult
+    title : str
+
+    Returns
+    -------
+    CompareResult
+        ``result`` with its ledger.
+    """
+    lines, entries = append_ledger(ledger_dir, d, result)
+    result = replace(result, ledger=entries)
+    if report_dir is not None:
+        write_report(report_dir, d, result, lines, title=title)
+    return result
 
 
 def write_report(directory: Path, d: Diagnosis, result: CompareResult, ledger: list[dict],

@@ -7,7 +7,6 @@ One axis gives a :class:`~twin.finding.result.CompareResult`; ``axes`` give an
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 from typing import Literal
 
@@ -15,11 +14,10 @@ from pydantic import Field, model_validator
 
 from twin.diagnosis.axes import check_applied_measurement, compare_imu
 from twin.diagnosis.diagnose import Diagnosis
-from twin.finding.build import compare_measurement, compare_result, imu_result, run_discovery
+from twin.finding.build import compare_measurement, finished_result, imu_result
 from twin.finding.discovery import PLUGIN_NAME
 from twin.finding.result import AxesCompareResult, CompareResult
 from twin.measurement import ColumnMap
-from twin.finding.ledger import append_ledger
 from twin.workflows.options import Options
 
 Axis = Literal["x", "y", "z"]
@@ -103,16 +101,13 @@ class CompareOptions(Options):
 
 def _record(opts: CompareOptions, d: Diagnosis, result: CompareResult, sub: str, title: str) -> CompareResult:
     """Append to the ledger beside the report (or the JSON) and write the report; the result with its ledger."""
+    from twin.reporting.compare_report import ledger_and_report
+
     ledger_dir = opts.report if opts.report is not None else opts.ledger_dir
     if ledger_dir is None:
         return result
-    lines, entries = append_ledger(ledger_dir / sub if sub else ledger_dir, d, result)
-    result = replace(result, ledger=entries)
-    if opts.report is not None:
-        from twin.reporting.compare_report import write_report
-
-        write_report(opts.report / sub if sub else opts.report, d, result, lines, title=title)
-    return result
+    return ledger_and_report(ledger_dir / sub if sub else ledger_dir,
+                             None if opts.report is None else opts.report / sub if sub else opts.report, d, result, title)
 
 
 def run_compare(opts: CompareOptions) -> CompareResult | AxesCompareResult:
@@ -152,8 +147,7 @@ def run_compare(opts: CompareOptions) -> CompareResult | AxesCompareResult:
         results = {}
         for axis, d in joint.diagnoses.items():
             sub = f"imu{instance}_{axis}"
-            disc, written = run_discovery(d, opts.plugin_target(sub), sources) if opts.discover else (None, None)
-            results[axis] = _record(opts, d, compare_result(d, disc, written), sub,
+            results[axis] = _record(opts, d, finished_result(d, opts.discover, opts.plugin_target(sub), sources), sub,
                                     f"twin compare: {names}, IMU {instance} {axis}")
         imus.append(imu_result(joint, results))
     return AxesCompareResult(tuple(imus), " ".join(f"IMU {r.instance}: {r.finding}" for r in imus))
