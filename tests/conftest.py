@@ -116,13 +116,17 @@ def paper_path() -> Path:
     return ROOT / "scenarios" / "paper_iis328dq.yaml"
 
 
+def run_quick_benchmark(folder: Path) -> Path:
+    """``twin benchmark --quick --seeds 1`` into ``folder`` (``benchmark_quick.json`` and ``rep/``)."""
+    r = run_cli("benchmark", "scenarios/paper_iis328dq.yaml", "--quick", "--seeds", "1", "--json",
+                str(folder / "benchmark_quick.json"), "--report", str(folder / "rep"), timeout=1200)
+    assert r.returncode == 0, r.stderr
+    return folder
+
+
 @pytest.fixture(scope="session")
 def quick_benchmark(tmp_path_factory):
-    """The folder of one ``twin benchmark --quick --seeds 1 --report`` run, shared by the session (the
-    golden check and the benchmark's own test read the same run: it trains six networks)."""
-    d = tmp_path_factory.mktemp("benchmark_quick")
-    r = run_cli("benchmark", "scenarios/paper_iis328dq.yaml", "--quick", "--seeds", "1", "--json",
-                str(d / "benchmark_quick.json"), "--report", str(d / "rep"), timeout=1200)
-    assert r.returncode == 0, r.stderr
-    return d
+    """The folder of one quick benchmark run, shared by the session (the golden check and the
+    benchmark's own test read the same run: it trains six networks)."""
+    return run_quick_benchmark(tmp_path_factory.mktemp("benchmark_quick"))
 

@@ -15,7 +15,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from conftest import run_cli  # noqa: E402
+from conftest import run_cli, run_quick_benchmark  # noqa: E402
 
 GOLDEN = HERE / "golden"
 # Keys whose values change from run to run by design: clocks, timings, versions, paths.
@@ -221,10 +221,7 @@ if __name__ == "__main__":
     import tempfile
 
     with tempfile.TemporaryDirectory() as d:
-        r = run_cli("benchmark", "scenarios/paper_iis328dq.yaml", "--quick", "--seeds", "1", "--json",
-                    str(Path(d) / "benchmark_quick.json"), timeout=1200)
-        assert r.returncode == 0, r.stderr
-        for name, data in make_run_outputs(Path(d), Path(d)).items():
+        for name, data in make_run_outputs(Path(d), run_quick_benchmark(Path(d))).items():
             path = recorded_path(name)
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")

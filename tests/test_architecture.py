@@ -31,9 +31,14 @@ RANK = {name: i for i, layer in enumerate(LAYERS) for name in layer}
 SOURCES = [p for d in ("twin", "sim", "fitting", "tests", "benchmarks") for p in (ROOT / d).rglob("*.py")]
 
 
-def _imports(path):
-    """(module imported, names imported) for every import in ``path``, nested ones included."""
+def _imports(path, runtime_only: bool = False):
+    """(module imported, names imported) for every import in ``path``, nested ones included;
+    ``runtime_only``: without those under ``if TYPE_CHECKING:`` (annotations only)."""
     tree = ast.parse(path.read_text())
+    if runtime_only:
+        for node in ast.walk(tree):
+            if isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING":
+                node.body = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             yield from ((a.name, []) for a in node.names)
@@ -107,19 +112,6 @@ def test_import_twin_does_not_load_heavy_packages():
     assert out.strip() == "[]"
 
 
-def _runtime_imports(path):
-    """As :func:`_imports`, without the imports under ``if TYPE_CHECKING:`` (annotations only)."""
-    tree = ast.parse(path.read_text())
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING":
-            node.body = []
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            yield from ((a.name, []) for a in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            yield node.module, [a.name for a in node.names]
-
-
 def _module_graph(package_dir) -> dict[str, set[str]]:
     """Module → the modules of the same package it imports (lazy imports inside functions included;
     ``from package import module`` is an edge to that module, not to the package's ``__init__``)."""
@@ -127,7 +119,7 @@ def _module_graph(package_dir) -> dict[str, set[str]]:
     graph = {}
     for name, path in modules.items():
         graph[name] = set()
-        for module, names in _runtime_imports(path):
+        for module, names in _imports(path, runtime_only=True):
             subs = [t for t in (f"{module}.{n}" for n in names) if t in modules]
             for target in subs or [module]:
                 if target in modules and target != name:
@@ -209,7 +201,7 @@ def test_reporting_only_renders():
     (a type named for annotations only, under ``TYPE_CHECKING``, runs nothing)."""
     offenders = []
     for path in (ROOT / "twin" / "reporting").rglob("*.py"):
-        for module, names in _runtime_imports(path):
+        for module, names in _imports(path, runtime_only=True):
             if any(module == w or module.startswith(w + ".") for w in WORKFLOW_MODULES) or \
                     (module == "twin.effects" and "load_plugin" in names):
                 offenders.append(f"{path.relative_to(ROOT)}: {module}")
