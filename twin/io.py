@@ -259,27 +259,13 @@ def strict_json(value):
     Parameters
     ----------
     value : object
-        Nested dicts, lists, tuples, NumPy values and plain values.
+        Nested dicts, lists, tuples, NumPy values, result dataclasses and plain values.
 
     Returns
     -------
     object
         The same structure as plain JSON data.
     """
-    import math
+    from twin.results import to_json  # one converter: typed results are written by the same code
 
-    import numpy as np
-
-    if isinstance(value, dict):
-        return {str(k): strict_json(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [strict_json(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return strict_json(value.tolist())
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    return value
+    return to_json(value)
