@@ -17,6 +17,7 @@ from twin.calibration.branches import Protocol
 from twin.calibration.lag import make_X
 from twin.calibration.models import AXES
 from twin.errors import TwinError
+from twin.estimation.noise import white_sigma_of_differences
 from twin.firmware import CalibrationRangeError
 
 
@@ -129,11 +130,10 @@ class ValidationResult:
         return "\n".join(lines + list(self.notes))
 
 
-def untrimmed_noise_floor_mg(residual_g: np.ndarray, index: np.ndarray) -> np.ndarray:
-    """σ [mg] per axis from first differences of consecutive held-out samples, / √2: the plain σ,
-    untrimmed, unlike the project's noise floor (:func:`twin.estimation.noise.white_sigma_of_differences`,
-    differences beyond 8 robust σ dropped). Kept because the calibration tables quote it and the trim
-    moves it by more than 1 % (TofuPilot heating → cooling, z: 0.563 → 0.548 mg, −2.7 %).
+def held_out_noise_floor_mg(residual_g: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """White-noise σ [mg] per axis of a held-out branch: the project's noise floor
+    (:func:`twin.estimation.noise.white_sigma_of_differences`) of the differences of consecutive
+    held-out samples, the same estimator ``twin compare`` quotes.
 
     Parameters
     ----------
@@ -149,8 +149,10 @@ def untrimmed_noise_floor_mg(residual_g: np.ndarray, index: np.ndarray) -> np.nd
     """
     index = np.asarray(index)
     pairs = np.flatnonzero(np.diff(index) == 1)
+    if pairs.size <= 2:
+        return np.full(3, np.nan)
     d = residual_g[index[pairs + 1]] - residual_g[index[pairs]]
-    return np.std(d, axis=0) / np.sqrt(2) * 1e3 if pairs.size > 2 else np.full(3, np.nan)
+    return np.array([white_sigma_of_differences(d[:, k]) for k in range(d.shape[1])]) * 1e3
 
 
 def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, run=None) -> ValidationResult:
@@ -200,7 +202,7 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
                 if np.sum(~extrap) >= MIN_IN_RANGE:  # inside the fold's training temperatures
                     scores.append(Score(fold.name, name, IN_RANGE, _rms(resid[held[~extrap]]), int(np.sum(~extrap)),
                                         0.0))
-                floors.append(np.concatenate([untrimmed_noise_floor_mg(resid, t.index)
+                floors.append(np.concatenate([held_out_noise_floor_mg(resid, t.index)
                                               for t in fold.tests]).reshape(-1, 3))
     if not scores:
         raise TwinError(f"protocol {protocol.name!r} has no held-out samples")
