@@ -6,9 +6,11 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 TWIN   := $(VENV)/bin/twin
 STAMP  := $(VENV)/.installed
-TOFU   := ../shared/data/real/tofupilot_imu_thermal/imu_raw_data.tsv
+REAL   := ../shared/data/real
+TOFU   := $(REAL)/tofupilot_imu_thermal/imu_raw_data.tsv
+DOCS_STAMP := $(VENV)/.docs-installed
 
-.PHONY: run test test-long install bench clean
+.PHONY: run test test-long install bench docs clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -54,18 +56,29 @@ test-long: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e '.[test,bench]'
-	$(PY) benchmarks/bench_simulate.py --json out/bench_simulate.json
-	$(PY) benchmarks/bench_render.py --json out/bench_render.json
-	$(PY) benchmarks/bench_effects.py --json out/bench_effects.json
-	$(PY) benchmarks/bench_compare.py --json out/bench_compare.json
-	$(PY) benchmarks/bench_calibrate.py --json out/bench_calibrate.json
-	$(PY) benchmarks/bench_diagnosis.py --seeds 200 --json out/bench_diagnosis.json
-	$(PY) benchmarks/bench_fitting.py --json out/bench_fitting.json
-	$(PY) benchmarks/bench_fem.py --json out/bench_fem.json
-	$(PY) benchmarks/bench_fleet.py --json out/bench_fleet.json
-	$(PY) benchmarks/bench_long.py --skip-week --json out/bench_long.json
-	$(PY) benchmarks/bench_discovery.py --seeds 50 --workers 2 --json out/bench_discovery.json
+	$(PY) benchmarks/bench_simulate.py --json benchmarks/results/bench_simulate.json
+	$(PY) benchmarks/bench_render.py --json benchmarks/results/bench_render.json
+	$(PY) benchmarks/bench_effects.py --json benchmarks/results/bench_effects.json
+	$(PY) benchmarks/bench_compare.py --json benchmarks/results/bench_compare.json
+	$(PY) benchmarks/bench_calibrate.py --json benchmarks/results/bench_calibrate.json
+	$(PY) benchmarks/bench_diagnosis.py --seeds 200 --json benchmarks/results/bench_diagnosis.json
+	$(PY) benchmarks/bench_fitting.py --json benchmarks/results/bench_fitting.json
+	$(PY) benchmarks/bench_fem.py --json benchmarks/results/bench_fem.json
+	$(PY) benchmarks/bench_fleet.py --json benchmarks/results/bench_fleet.json
+	$(PY) benchmarks/bench_long.py --skip-week --json benchmarks/results/bench_long.json
+	$(PY) benchmarks/bench_discovery.py --seeds 50 --workers 2 --json benchmarks/results/bench_discovery.json
+	$(PY) benchmarks/bench_one_twin.py --json benchmarks/results/bench_one_twin.json
 	$(TWIN) benchmark scenarios/paper_iis328dq.yaml --seeds 3 --json out/benchmark.json --report out/benchmark
 
+# the documentation site into docs/_build/html: warnings are errors; every tutorial and gallery
+# example is executed (the tutorials read the real logs from TWIN_REAL_DATA)
+$(DOCS_STAMP): pyproject.toml $(STAMP)
+	$(PY) -m pip install --quiet -e '.[test,docs]'
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	rm -rf docs/_build docs/auto_tutorials docs/auto_gallery docs/reference/generated
+	TWIN_REAL_DATA=$(abspath $(REAL)) MPLBACKEND=Agg $(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
+
 clean:
-	rm -rf out .pytest_cache
+	rm -rf out .pytest_cache docs/_build docs/auto_tutorials docs/auto_gallery docs/reference/generated

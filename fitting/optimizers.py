@@ -13,7 +13,7 @@ References
 ----------
 Holland (1975) / Goldberg (1989) for the GA; the paper's eq. (39) binary encoding. Shi & Eberhart
 (1998) inertia-weight PSO: v ← w v + c1 r1 (p − x) + c2 r2 (g − x), x ← x + v (the paper's
-eq. 43 is garbled: physics-notes part 3 row 22).
+eq. 43 is garbled: docs/physics.md §3 row 22).
 """
 
 from __future__ import annotations
@@ -434,7 +434,7 @@ def eq45(X: np.ndarray) -> np.ndarray:
 
     References
     ----------
-    Qi et al. (2022), Micromachines 13, 2156, eq. (45); minimum ``EQ45_MINIMUM`` (physics-notes §2.6).
+    Qi et al. (2022), Micromachines 13(6), 835, eq. (45); minimum ``EQ45_MINIMUM`` (docs/physics.md §2.6).
     """
     X = np.atleast_2d(X)
     x, y = X[:, 0], X[:, 1]
@@ -442,4 +442,4 @@ def eq45(X: np.ndarray) -> np.ndarray:
 
 
 EQ45_BOUNDS = [(-2.0, 2.0), (-2.0, 2.0)]
-EQ45_MINIMUM = -3.7563359221354  # at (1.7626785533557, -2); physics-notes §2.6
+EQ45_MINIMUM = -3.7563359221354  # at (1.7626785533557, -2); docs/physics.md §2.6

@@ -2,7 +2,7 @@
 
 References
 ----------
-Qi et al. (2022), eqs. (26)–(35); physics-notes §2.1–2.3 and part 3 rows 15–19.
+Qi et al. (2022), eqs. (26)–(35); docs/physics.md §2.1–2.3 and §3 rows 15–19.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ def paper_beta_mg_per_c(
 
     The printed 0.64 mg/°C appears only when the % sign is dropped (``honour_percent=False``);
     honouring it gives 0.0064 mg/°C. Both divide a per-°C figure by a temperature span a second
-    time (physics-notes §2.1).
+    time (docs/physics.md §2.1).
 
     Parameters
     ----------
@@ -67,7 +67,7 @@ def physical_beta_mg_per_c(tcso_pct_per_c: float = 0.01, applied_g: float = 1.0)
 
     References
     ----------
-    Definition of a relative scale-factor tempco (physics-notes §2.1); no further source.
+    Definition of a relative scale-factor tempco (docs/physics.md §2.1); no further source.
     """
     return tcso_pct_per_c / 100.0 * applied_g * 1e3
 
@@ -109,7 +109,7 @@ def paper_control_period_s(
 
     With C in kJ/(kg K) (1.005, the paper's value) and b1 = 0.600 m, b2 = 0.605 m this gives
     29.323 s. The expression has units of s/m, not s (eq. 29 integrates an energy over length),
-    so it is **not a physical time**: physics-notes §2.3 and part 3 row 17.
+    so it is **not a physical time**: docs/physics.md §2.3 and §3 row 17.
 
     Parameters
     ----------
@@ -135,7 +135,7 @@ def paper_control_period_s(
 
 
 def air_density_kg_per_m3(temperature_c: float, pressure_pa: float = 101325.0) -> float:
-    """Ideal-gas air density ρ = p / (R T), R = 287.05 J/(kg K) (physics-notes §1.5).
+    """Ideal-gas air density ρ = p / (R T), R = 287.05 J/(kg K) (docs/physics.md §1.5).
 
     Parameters
     ----------
@@ -200,7 +200,7 @@ def conduction_time_scale_s(half_width_m: float, diffusivity_m2_per_s: float) ->
 
     References
     ----------
-    Standard conduction time scale (Fourier number Fo = a t / l² = 1); physics-notes §2.3.
+    Standard conduction time scale (Fourier number Fo = a t / l² = 1); docs/physics.md §2.3.
     """
     return half_width_m**2 / diffusivity_m2_per_s
 

@@ -1,6 +1,6 @@
 """Minimal drift law: bias and scale factor against die temperature (TCOff, TCSo).
 
-IEEE Std 1293 model-equation form (physics-notes §1.7, §2.5):
+IEEE Std 1293 model-equation form (docs/physics.md §1.7, §2.5):
 ``a_out = (1 + s1·ΔT + s2·ΔT²)·a_in + b1·ΔT + b2·ΔT²`` with ΔT = T_die − T_ref.
 The effect library wraps these kernels; they stay pure functions of arrays.
 """
@@ -35,7 +35,7 @@ def bias_tc_g(
 
     References
     ----------
-    IEEE Std 1293 model equation (physics-notes §1.7, §2.5).
+    IEEE Std 1293 model equation (docs/physics.md §1.7, §2.5).
     """
     dT = np.asarray(die_c, float) - reference_c
     return (tc1_mg_per_c * dT + tc2_mg_per_c2 * dT * dT) * 1e-3
@@ -66,7 +66,7 @@ def scale_factor_tc(
 
     References
     ----------
-    IEEE Std 1293 model equation (physics-notes §1.7, §2.5).
+    IEEE Std 1293 model equation (docs/physics.md §1.7, §2.5).
     """
     dT = np.asarray(die_c, float) - reference_c
     return (tc1_ppm_per_c * dT + tc2_ppm_per_c2 * dT * dT) * 1e-6

@@ -5,7 +5,7 @@ References
 Okada & Tokumaru, J. Appl. Phys. 56, 314 (1984): α(T) = (3.725·{1 − exp[−5.88e-3 (T − 124)]}
 + 5.548e-4·T) × 1e-6 /K, T in K, valid 120–1500 K, data scatter ±2e-7 /K.
 Gysin et al., Phys. Rev. B 69, 045403 (2004), Wachtman form: E(T) = E0 − B·T·exp(−T0/T),
-E0 = 167.5 GPa, B = 15.8 MPa/K, T0 = 317 K. physics-notes §1.2, §1.3, §2.4.
+E0 = 167.5 GPa, B = 15.8 MPa/K, T0 = 317 K. docs/physics.md §1.2, §1.3, §2.4.
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ def _cte_antiderivative(t: np.ndarray) -> np.ndarray:
 def silicon_thermal_strain(temperature_k: np.ndarray | float, reference_k: float = 298.15) -> np.ndarray:
     """Thermal strain ε(T) = ∫_{T_ref}^{T} α dT′ [1], exact integral of the Okada formula.
 
-    ε(−20 °C) = −1.056e-4 and ε(50 °C) = +6.63e-5 relative to 25 °C (physics-notes §1.2).
+    ε(−20 °C) = −1.056e-4 and ε(50 °C) = +6.63e-5 relative to 25 °C (docs/physics.md §1.2).
 
     Parameters
     ----------
@@ -91,7 +91,7 @@ def cte_polynomial_orders(
     """Least-squares polynomial fits of α(T) over a range: RMSE and maximum error per order.
 
     Reproduces the paper's Figure 3 (240–340 K). The order-2 RMSE is ≈ 9.3e-10 /K on a 1 K grid;
-    the paper's 2.39e-9 /K is the quadratic's maximum error (physics-notes §2.4).
+    the paper's 2.39e-9 /K is the quadratic's maximum error (docs/physics.md §2.4).
 
     Parameters
     ----------

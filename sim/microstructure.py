@@ -1,6 +1,6 @@
 """Comb microstructure of the paper (§2.1, eqs. 9–21): capacitances and thermal drift, in SI.
 
-Dimensions (paper §2.1.3, physics-notes §2.5 and part 3 rows 3–13):
+Dimensions (paper §2.1.3, docs/physics.md §2.5 and §3 rows 3–13):
 b overlap length of moving and fixed fingers, e gap between a fixed finger's tip and the moving
 plate's long beam, h fixed-finger width, g finger length, u sensing gap, m moving-finger width,
 n width of the moving plate's long beam, j structure thickness, i moving-finger length (undefined
@@ -42,7 +42,7 @@ class GeometryError(ValueError):
 
 @dataclass(frozen=True)
 class CombGeometry:
-    """Comb-cell dimensions [µm] and proof-mass resonance [Hz] (defaults: physics-notes §2.5).
+    """Comb-cell dimensions [µm] and proof-mass resonance [Hz] (defaults: docs/physics.md §2.5).
 
     Symbols of the paper's §2.1.3 (see the module docstring).
 

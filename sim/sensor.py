@@ -7,7 +7,7 @@ resolution, low-pass cut-off per ODR, noise density, bias instability) arrives a
 YAML file per part with the value, unit, source and verification of each figure) and the
 scenario's own choices and overrides.
 
-Modelling choices (physics-notes §1.1): the white noise per ODR sample is the noise density over
+Modelling choices (docs/physics.md §1.1): the white noise per ODR sample is the noise density over
 the digital low-pass cut-off as the bandwidth (datasheets state no noise bandwidth); the bias
 instability is a first-order Gauss–Markov process; the output is rounded to whole digits and
 saturates at the two's-complement limits of the resolution.
@@ -79,7 +79,7 @@ class AccelerometerConfig:
 def white_noise_sigma_g(noise_density_ug_per_sqrt_hz: float, bandwidth_hz: float) -> float:
     """σ [g] of white noise of one-sided density nd [µg/√Hz] in a bandwidth B: nd·√B.
 
-    The bandwidth is the low-pass cut-off, a modelling choice (physics-notes §1.1).
+    The bandwidth is the low-pass cut-off, a modelling choice (docs/physics.md §1.1).
 
     Parameters
     ----------
@@ -95,7 +95,7 @@ def white_noise_sigma_g(noise_density_ug_per_sqrt_hz: float, bandwidth_hz: float
 
     References
     ----------
-    Standard result for band-limited white noise (σ² = nd² B); physics-notes §1.1.
+    Standard result for band-limited white noise (σ² = nd² B); docs/physics.md §1.1.
     """
     return noise_density_ug_per_sqrt_hz * 1e-6 * np.sqrt(bandwidth_hz)
 

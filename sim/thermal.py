@@ -18,7 +18,7 @@ References
 ----------
 Incropera & DeWitt, *Fundamentals of Heat and Mass Transfer*, §5.2 (lumped capacitance), §5.10
 (finite-difference/finite-volume transient conduction). Patankar (1980), *Numerical Heat Transfer
-and Fluid Flow*, §4.2 (harmonic-mean interface conductance). physics-notes §1.6, §2.3.
+and Fluid Flow*, §4.2 (harmonic-mean interface conductance). docs/physics.md §1.6, §2.3.
 """
 
 from __future__ import annotations
@@ -136,7 +136,7 @@ class LumpedChain:
     Parameters
     ----------
     board_tau_s : float
-        C_board / G_air→board [s]: convective time constant of the board/fixture (physics-notes
+        C_board / G_air→board [s]: convective time constant of the board/fixture (docs/physics.md
         §1.6: 33–1350 s for a board or an Al fixture at 10–50 W/m² K).
     die_tau_s : float
         C_die / G_board→die [s] (package on board, ≈ 10–90 s).

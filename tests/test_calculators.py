@@ -1,4 +1,4 @@
-"""Paper test-design numbers (physics-notes §2.1-2.3)."""
+"""Paper test-design numbers (docs/physics.md §2.1-2.3)."""
 
 import pytest
 
@@ -18,7 +18,7 @@ def test_eq33_beta_only_with_percent_dropped():
 
 
 def test_eq31_control_period_as_printed():
-    # C in kJ/(kg K), b1 = 0.600 m, b2 = 0.605 m: 29.3230 s (physics-notes §2.3).
+    # C in kJ/(kg K), b1 = 0.600 m, b2 = 0.605 m: 29.3230 s (docs/physics.md §2.3).
     assert calc.paper_control_period_s() == pytest.approx(29.32, abs=0.005)
 
 
@@ -27,13 +27,13 @@ def test_physical_conduction_time_scales():
     assert a == pytest.approx(2.05e-5, rel=0.005)
     assert calc.conduction_time_scale_s(0.3, a) == pytest.approx(4380, rel=0.001)
     assert calc.first_mode_time_constant_s(0.3, a) == pytest.approx(1775, rel=0.001)
-    # centre-plane Fourier numbers: 50 % 0.379, 63.2 % 0.503, 90 % 1.03, 99 % 1.96 (physics-notes)
+    # centre-plane Fourier numbers: 50 % 0.379, 63.2 % 0.503, 90 % 1.03, 99 % 1.96 (docs/physics.md §2.3)
     for frac, fo in [(0.5, 0.379), (0.632, 0.503), (0.9, 1.03), (0.99, 1.96)]:
         assert calc.centre_response_fourier(frac) == pytest.approx(fo, abs=0.005)
 
 
 def test_air_density_ideal_gas():
-    # physics-notes §1.5 (CoolProp): 1.293 at 0 degC, 1.205 at 20 degC
+    # docs/physics.md §1.5 (CoolProp): 1.293 at 0 degC, 1.205 at 20 degC
     assert calc.air_density_kg_per_m3(0.0) == pytest.approx(1.293, abs=0.002)
     assert calc.air_density_kg_per_m3(20.0) == pytest.approx(1.205, abs=0.002)
 

@@ -1,7 +1,7 @@
 """twin.calibration: branches and protocols, lag-aware compensation, validation, six-position fits.
 
 Simulated truths are built here (seeded); the real-data acceptance reads the TofuPilot IMU log in
-place from ../shared (one static orientation, one cycle 51.6 → −17.6 → 74.0 → 36.3 °C).
+place from where the real logs are kept beside the project (``conftest.SHARED``; one static orientation, one cycle 51.6 → −17.6 → 74.0 → 36.3 °C).
 """
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""Silicon CTE, strain and Young's modulus against physics-notes §1.2, §1.3, §2.4."""
+"""Silicon CTE, strain and Young's modulus against docs/physics.md §1.2, §1.3, §2.4."""
 
 import numpy as np
 import pytest
@@ -41,7 +41,7 @@ def test_thermal_strain_is_the_integral_of_cte():
 
 def test_polynomial_order_selection_reproduces_corrected_figure_3():
     rows = {r["order"]: r for r in cte_polynomial_orders(240, 340, 1.0)}
-    # physics-notes §2.4 table (1 K grid), given to 2 significant figures: 5 % tolerance
+    # docs/physics.md §2.4 table (1 K grid), given to 2 significant figures: 5 % tolerance
     assert rows[1]["rmse_per_k"] == pytest.approx(1.86e-8, rel=0.05)
     assert rows[2]["rmse_per_k"] == pytest.approx(9.3e-10, rel=0.05)
     assert rows[2]["max_abs_error_per_k"] == pytest.approx(2.42e-9, rel=0.05)  # the paper's "RMSE" 2.39e-9

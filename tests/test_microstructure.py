@@ -1,4 +1,4 @@
-"""Comb capacitance and thermal drift against physics-notes §2.5 (readings P, S, H, HE)."""
+"""Comb capacitance and thermal drift against docs/physics.md §2.5 (readings P, S, H, HE)."""
 
 import numpy as np
 import pytest
@@ -23,7 +23,7 @@ def slope(reading, a=1.0):
 
 
 def test_cell_capacitances_and_signal():
-    # physics-notes §2.5: C2 = 6.64 fF, C1 = 0.080 fF, 0.183 fF/g, du(1 g) = 27.6 nm at 3 kHz (3 s.f.)
+    # docs/physics.md §2.5: C2 = 6.64 fF, C1 = 0.080 fF, 0.183 fF/g, du(1 g) = 27.6 nm at 3 kHz (3 s.f.)
     c0 = capacitances_f(G, 25.0, 0.0, "S")
     assert c0["C2"] * 1e15 == pytest.approx(6.64, rel=2e-3)
     assert c0["C1"] * 1e15 == pytest.approx(0.080, rel=5e-3)

@@ -39,7 +39,7 @@ def test_iis328dq_holds_every_figure_with_its_provenance():
     assert part.value("lowpass_hz") == {50: 37.0, 100: 74.0, 400: 292.0, 1000: 780.0}
     assert part.value("resolution_bits") == 12
     assert part.value("operating_temperature_c") == (-40.0, 105.0)
-    # physics-notes §1.1: the datasheet's Table 2 was read in full (Rev 4); the bias instability is
+    # docs/physics.md §1.1: the datasheet's Table 2 was read in full (Rev 4); the bias instability is
     # a typical value, not a datasheet figure.
     assert not part.figures["bias_instability_mg"].verified and not part.figures["bias_instability_tau_s"].verified
     assert part.figures["noise_density_ug_per_sqrt_hz"].verified and part.figures["tcoff_mg_per_c"].verified

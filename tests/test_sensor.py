@@ -36,7 +36,7 @@ def white_only():
 
 
 def test_noise_sigma_is_density_times_sqrt_bandwidth():
-    # 218 ug/sqrt(Hz) x sqrt(37 Hz) = 1.326 mg (physics-notes §1.1, the 1.33 mg)
+    # 218 ug/sqrt(Hz) x sqrt(37 Hz) = 1.326 mg (docs/physics.md §1.1, the 1.33 mg)
     assert white_noise_sigma_g(218.0, 37.0) == pytest.approx(1.326e-3, abs=1e-6)
     assert iis328dq().white_sigma_g == pytest.approx(218e-6 * np.sqrt(37.0))
 

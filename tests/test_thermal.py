@@ -50,7 +50,7 @@ def test_first_order_lag_step_matches_exponential():
 
 
 def test_first_order_lag_ramp_lags_by_rate_times_tau():
-    # physics-notes §1.6: steady lag of a first-order element on a ramp = rate x tau.
+    # docs/physics.md §1.6: steady lag of a first-order element on a ramp = rate x tau.
     dt, tau, rate = 0.1, 100.0, 0.4 / 35
     t = np.arange(0, 3000, dt)
     y = first_order_lag(rate * t, dt, tau)

@@ -1,7 +1,7 @@
 """Package materials: elastic constants and free thermal strain ε_th = ∫α dT, with sources.
 
-Sources are listed in ``docs/fem.md``, design notes §D4, and in the shared physics reference table
-``physics_reference.json`` (``package_cte_ppm_per_K``). Silicon takes α(T) and E(T) from
+Sources are listed in ``docs/fem.md``, design notes §D4, and the CTE ranges of the package materials
+in ``docs/physics.md`` §1.4. Silicon takes α(T) and E(T) from
 :mod:`sim.materials`; E is held at the reference temperature in the elastic solve.
 """
 
@@ -120,7 +120,7 @@ def fr4() -> PackageMaterial:
         E 25 GPa, ν 0.18, α 15 ppm/K.
     """
     return PackageMaterial("FR-4", 25.0, 0.18, 15.0, source="docs/fem.md §D4: in-plane E 25 GPa, ν_xy 0.18, "
-                           "α 15 ppm/K (physics_reference.json FR4_xy 14-20)")
+                           "α 15 ppm/K (docs/physics.md §1.4: FR-4 in-plane 14-20)")
 
 
 def sac305() -> PackageMaterial:
@@ -132,7 +132,7 @@ def sac305() -> PackageMaterial:
         E 45 GPa, ν 0.36, α 22 ppm/K.
     """
     return PackageMaterial("SAC305", 45.0, 0.36, 22.0, source="docs/fem.md §D4: E 40-50 GPa, α 21-23 ppm/K "
-                           "(physics_reference.json solder_SAC305)")
+                           "(docs/physics.md §1.4: SAC305 21-23)")
 
 
 def copper_c194() -> PackageMaterial:

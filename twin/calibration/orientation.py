@@ -1,7 +1,7 @@
 """Static orientations (six-position or tumble tests) and per-axis offset(T) and scale factor(T).
 
 A static segment is a static stretch of the log-quality stage (:mod:`twin.measurement.quality`:
-still by σ, |a| and the gyro, 2 s cut beside every move); its mean is gravity seen by the sensor.
+still by σ, ‖a‖ and the gyro, 2 s cut beside every move); its mean is gravity seen by the sensor.
 Segments are clustered by direction into orientations; axis-aligned ones get a label
 (``+x`` … ``−z``) and a nominal gravity projection of ±1 g or 0 per axis, which is the truth the
 fit ``a = (1 + s(T))·g_true + o(T)`` needs. Gravity is the unit: results are in local g.
@@ -312,3 +312,47 @@ def six_position(time_s, accel_g, temperature_c, degree: int = 1, reference_c: f
         raise TwinError("no static segment found: lower window_s/min_duration_s or raise max_std_mg")
     report = cluster_orientations(segments, tol_deg)
     return report, fit_offset_scale(segments, report, degree, reference_c)
+
+
+def orientation_calibration(time_s, temperature_c, accel_g, quality: LogQuality):
+    """Orientations found in a log, and per axis offset(T) and scale factor(T) from its static segments.
+
+    Returns None for a log in one orientation. Otherwise (summary for the document, the static rows,
+    the nominal gravity of every row, zero off those rows): the firmware methods and the twin are then
+    fitted on the static rows with gravity removed, so what they leave is the scale factor they do
+    not model.
+
+    Parameters
+    ----------
+    time_s, temperature_c : ndarray
+        [s], [°C].
+    accel_g : ndarray
+        (n, 3) [g].
+    quality : LogQuality
+
+    Returns
+    -------
+    tuple of (dict, ndarray of bool, ndarray) or None
+    """
+    segments = segments_of(quality, time_s, temperature_c, accel_g)
+    report = cluster_orientations(segments) if segments else None
+    if report is None or len(report.orientations) < 2:
+        return None
+    fit = fit_offset_scale(segments, report, degree=1)
+    keep = np.zeros(len(time_s), bool)
+    gravity = np.zeros((len(time_s), 3))
+    for o in report.orientations:
+        for j in o.segments:
+            keep[segments[j].start:segments[j].stop] = True
+            gravity[segments[j].start:segments[j].stop] = o.nominal_g
+    summary = {
+        "kind": report.kind, "found": list(report.found), "missing": list(report.missing),
+        "static_segments": len(segments), "reference_c": fit.reference_c,
+        "tcso_ppm_per_c": {a: {"value": float(fit.scale_ppm[i, 1]), "ci95": list(map(float, fit.scale_ci95_ppm[i, 1]))}
+                           for i, a in enumerate(AXES)},
+        "tcoff_mg_per_c": {a: {"value": float(fit.offset_mg[i, 1]), "ci95": list(map(float, fit.offset_ci95_mg[i, 1]))}
+                           for i, a in enumerate(AXES)},
+        "zero_g_offset_mg": {a: float(fit.offset_mg[i, 0]) for i, a in enumerate(AXES)},
+        "residual_rms_mg": dict(zip(AXES, map(float, fit.residual_rms_mg))), "notes": list(fit.notes),
+    }
+    return summary, keep, gravity

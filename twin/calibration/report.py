@@ -24,11 +24,13 @@ AS_APPLIED_NOTE = (f"'<method>{AS_APPLIED}': the file written for the method, ap
 
 
 def _validation(page: Page, v, unit: str = "mg") -> None:
-    """The held-out table: one row per fold, test and method, the noise floor last."""
-    rows = [[f"{s.fold}: {s.test}", s.method, *(f"{x:.3f}" for x in s.rms_mg), f"{100 * s.extrapolated_fraction:.0f} %"]
-            for s in v.scores]
-    rows.append(["noise floor", "", *(f"{x:.3f}" for x in v.noise_floor_mg), ""])
-    page.table(rows, ["fold: test", "method", *(f"{a} [{unit}]" for a in AXES), "extrapolated"])
+    """The held-out table: one row per fold, test and method (each fold and test named once), the noise floor last."""
+    first = {k: i for i, k in reversed(list(enumerate((s.fold, s.test) for s in v.scores)))}  # first appearance
+    folds = list(dict.fromkeys(s.fold for s in v.scores))
+    rows = [[s.fold, s.test, s.method, *(f"{x:.3f}" for x in s.rms_mg), f"{100 * s.extrapolated_fraction:.0f} %"]
+            for s in sorted(v.scores, key=lambda s: (folds.index(s.fold), first[s.fold, s.test]))]
+    rows.append(["noise floor", "", "", *(f"{x:.3f}" for x in v.noise_floor_mg), ""])
+    page.table(rows, ["fold", "test", "method", *(f"{a} [{unit}]" for a in AXES), "extrapolated"], merge=2)
     page.text(AS_APPLIED_NOTE)
 
 
@@ -89,7 +91,7 @@ def write_calibration_report(directory: Path, calibrations: list[ImuCalibration]
     Path
     """
     page = Page("Temperature calibration, validated on held-out data",
-                [line for c in calibrations for line in _summary(c)])
+                [" ".join(_summary(c)) for c in calibrations])  # a paragraph per IMU
     for c in calibrations:
         data = logs[c.instance]
         used = np.concatenate([q.usable_static for q in c.quality]) if c.quality else slice(None)  # the rows fitted
@@ -134,5 +136,5 @@ def write_calibration_report(directory: Path, calibrations: list[ImuCalibration]
         page.heading("Fitted equations", 3)
         for m, est in c.fitted.items():
             if hasattr(est, "equation"):
-                page.heading(m, 3).code(est.equation())
+                page.heading(m, 4).code(est.equation())
     return page.write(directory / "report.html")

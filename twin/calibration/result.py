@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from twin.calibration.fragment import document_html
 from twin.calibration.method_records import FirmwareMethod, MethodRecord
 from twin.measurement.quality_records import QualitySummary
 from twin.results import PerAxis, to_json
@@ -336,6 +337,7 @@ class CalibrationDocument:
     inputs: tuple[InputFile, ...]
     skipped: tuple[SkippedImu, ...]
     imus: tuple[ImuRecord, ...]
+    _repr_html_ = document_html  # a notebook shows the sentences and table of twin.calibration.fragment
 
     def to_json(self) -> dict:
         """The JSON of the document (see :mod:`twin.results`).

@@ -1,3 +1,6 @@
+"""``python -m twin.cli``: the ``twin`` command."""
+
 from twin.cli import main
 
-main()
+if __name__ == "__main__":  # importing the module (the API reference does) must not run the CLI
+    main()

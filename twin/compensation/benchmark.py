@@ -142,7 +142,7 @@ def _check_split(name: str, train, test, loaded: LoadedScenario, what: str) -> N
 
 
 def optimizer_benchmark(seeds: int = 20) -> dict[str, OptimizerEntry]:
-    """Iterations and evaluations to |z − z*| < 1e-6 on eq. (45) (median and IQR over seeds).
+    """Iterations and evaluations to abs(z − z*) < 1e-6 on eq. (45) (median and IQR over seeds).
 
     GA (real-valued, and the paper's binary encoding of eq. (39)), PSO and PSO-GA; population 50,
     at most 300 iterations.

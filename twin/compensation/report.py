@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from twin.compensation.benchmark_result import BenchmarkResult
+from twin.html import DASH
 from twin.reporting.page import Page
 from twin.reporting.plots import png_base64
 from twin.reporting.study_plots import benchmark_displays
@@ -27,11 +28,11 @@ def write_benchmark_report(directory: Path, result: BenchmarkResult) -> Path:
 
     matplotlib.use("Agg")
     page = Page("Compensation benchmark", list(result.verdicts))
-    page.text(f"{result.tests} tests{' (quick budget)' if result.quick else ''}; noise-only MSE "
+    page.text(f"{result.tests} test{'s' if result.tests != 1 else ''}{' (quick budget)' if result.quick else ''}; noise-only MSE "
               f"{result.noise_floor_mse:.3e} g² (what a perfect compensation leaves).")
     page.heading("Table 1: test MSE of each compensator")
-    page.table([[r.model, f"{r.mse_mean:.3e}", f"{r.mse_std:.2e}", f"{r.ratio_mean:.3f}",
-                 "-" if r.Q_percent is None else f"{sum(r.Q_percent) / len(r.Q_percent):.1f} %"]
+    page.table([[r.model, f"{r.mse_mean:.3e}", f"{r.mse_std:.2e}" if result.tests > 1 else DASH, f"{r.ratio_mean:.3f}",
+                 DASH if r.Q_percent is None else f"{sum(r.Q_percent) / len(r.Q_percent):.1f} %"]
                 for r in result.table1],
                ["compensator", "MSE mean [g²]", "MSE std [g²]", "MSE / noise-only MSE", "Q vs conventional"])
     if result.table2:

@@ -27,7 +27,7 @@ class CombExpansion(Effect):
                    "reading S): ≈ +15 ppm/°C with the default geometry; from geometry, no free amplitude")
     reads = ("die_c", "applied_g")
     parameters = (
-        Parameter("scale", "1", 1.0, (0.0, 100.0), "geometry and material (physics-notes §2.5); 1 = as computed",
+        Parameter("scale", "1", 1.0, (0.0, 100.0), "geometry and material (docs/physics.md §2.5); 1 = as computed",
                   free=False),
         REFERENCE_C,
     )

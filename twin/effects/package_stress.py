@@ -19,8 +19,8 @@ class PackageStress(Effect):
     parameters = (
         Parameter("coupling_mg_per_ustrain", "mg/microstrain", 0.02, (-1.0, 1.0),
                   "chosen so that 0.2 % of the Si-FR-4 mismatch over a 500 µm span gives ~0.3 mg/°C "
-                  "(physics-notes §1.4); device-specific"),
-        Parameter("cte_mismatch_ppm_per_k", "ppm/K", 14.0, (0.0, 300.0), "FR-4 in-plane 16.6 − Si 2.55 (physics-notes §1.4)",
+                  "(docs/physics.md §1.4); device-specific"),
+        Parameter("cte_mismatch_ppm_per_k", "ppm/K", 14.0, (0.0, 300.0), "FR-4 in-plane 16.6 − Si 2.55 (docs/physics.md §1.4)",
                   role="fixed", free=False),
         REFERENCE_C,
     )

@@ -16,7 +16,7 @@ class ScaleFactorTC(Effect):
     reads = ("die_c", "applied_g")
     parameters = (
         Parameter("tc1_ppm_per_c", "ppm/degC", 100.0, (-1000.0, 1000.0), "TCSo ±0.01 %/°C, recalled (family datasheets)"),
-        Parameter("tc2_ppm_per_c2", "ppm/degC^2", 0.0, (-10.0, 10.0), "typical: +0.07 ppm/°C² from E(T) (physics-notes §2.5)"),
+        Parameter("tc2_ppm_per_c2", "ppm/degC^2", 0.0, (-10.0, 10.0), "typical: +0.07 ppm/°C² from E(T) (docs/physics.md §2.5)"),
         REFERENCE_C,
     )
 

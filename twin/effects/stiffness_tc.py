@@ -13,7 +13,7 @@ class StiffnessTC(Effect):
     name = "stiffness_tc"
     family = "scale_factor"
     description = ("spring k ∝ E(T) (Wachtman/Gysin): sensitivity ∝ 1/k, ≈ +67.9 ppm/°C at 25 °C "
-                   "(physics-notes §1.3); from material, no free amplitude")
+                   "(docs/physics.md §1.3); from material, no free amplitude")
     reads = ("die_c", "applied_g")
     parameters = (
         Parameter("scale", "1", 1.0, (0.0, 100.0), "material (Gysin et al. 2004); 1 = as computed; ASIC trim lowers it",

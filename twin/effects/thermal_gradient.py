@@ -17,7 +17,7 @@ class ThermalGradient(Effect):
     parameters = (
         Parameter("coef_mg_per_c_per_min", "mg/(degC/min)", 0.5, (-50.0, 50.0), "similar to lag during ramps (docs/diagnosis.md §2i)"),
         Parameter("tau_s", "s", 300.0, (5.0, 1500.0),
-                  "conduction through package/board: seconds to ~20 min (physics-notes §1.6); longer is creep",
+                  "conduction through package/board: seconds to ~20 min (docs/physics.md §1.6); longer is creep",
                   role="nonlinear", grid=(30.0, 100.0, 300.0, 1000.0)),
     )
 

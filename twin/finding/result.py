@@ -1,10 +1,7 @@
-"""The result of ``twin compare``: typed, built once, and written to JSON field for field.
+"""The result of ``twin compare``, typed and built once: its JSON, schema and notebook display derive from the types.
 
-:func:`twin.finding.build.compare_result` builds a :class:`CompareResult` from a diagnosis; the
-finding text is worded once, there. Every consumer (the CLI, the report, the fleet, the studies)
-reads attributes; the JSON and its schema (``twin schema --result compare``) derive from these
-types through :mod:`twin.results`.
-"""
+:func:`twin.finding.build.compare_result` builds a :class:`CompareResult` (the finding worded once, there); the CLI, the
+report, fleets, studies and notebooks (``_repr_html_``) read attributes; JSON and schema come via :mod:`twin.results`."""
 
 from __future__ import annotations
 
@@ -15,6 +12,7 @@ from twin.diagnosis.records import Alias, FamilyChoice, Untestable, Withheld
 from twin.diagnosis.segments import ResidualSplit
 from twin.diagnosis.structure import Structure
 from twin.discovery.search import RunnerUp
+from twin.finding.fragment import axes_html, compare_html, imu_html
 from twin.measurement.quality_records import QualitySummary
 from twin.results import to_json
 
@@ -371,6 +369,7 @@ class CompareResult:
     lookalikes: tuple[LookAlike, ...] | None = None
     discovery: DiscoverySummary | None = None
     ledger: tuple[LedgerEntry, ...] | None = None
+    _repr_html_ = compare_html  # a notebook shows the sentences and tables of twin.finding.fragment
 
     def candidate(self, effect: str) -> Candidate:
         """The screening result of ``effect`` (KeyError when it was not screened).
@@ -424,6 +423,7 @@ class ImuCompareResult:
     log_quality: tuple[QualitySummary, ...]
     finding: str
     axes: dict[str, CompareResult]
+    _repr_html_ = imu_html
 
 
 @dataclass(frozen=True)
@@ -438,6 +438,7 @@ class AxesCompareResult:
 
     imus: tuple[ImuCompareResult, ...]
     finding: str
+    _repr_html_ = axes_html
 
     def to_json(self) -> dict:
         """The JSON of ``twin compare --axes … --json``.

@@ -333,7 +333,7 @@ def check_polynomial(poly: ClampedPolynomial, where: str) -> None:
 
 
 def applied_vs_ideal(applied, ideal, mask=None) -> dict[str, dict[str, float]]:
-    """Validation table: per axis max |applied − ideal| and RMS, e.g. what the vehicle applies with
+    """Validation table: per axis max abs(applied − ideal) and RMS, e.g. what the vehicle applies with
     the written file loaded (``px4_vehicle_offsets``, ``ardupilot_vehicle_offsets``) against the
     float64 polynomial (``cal.offset``), in the offsets' unit.
 

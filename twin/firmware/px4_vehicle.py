@@ -166,7 +166,7 @@ def px4_vehicle_offsets(values: Mapping[str, float], time_s, temperature_c, inst
 
 
 def px4_republish_lag_c(time_s, temperature_c, check_period_s: float = CHECK_PERIOD_S) -> float:
-    """Bound (°C) on |T(sample) − T(published)| after the first publication, on this log.
+    """Bound (°C) on abs(T(sample) − T(published)) after the first publication, on this log.
 
     At the latest run before a sample either the offset was republished or T had moved ≤ 1 °C
     since; since that run T moved at most max|dT/dt|·(period + longest sample gap). Multiplied by

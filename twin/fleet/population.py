@@ -2,7 +2,7 @@
 fitted parameters, robust outliers (median / MAD), and the per-unit table.
 
 Robust z-score: z = (x − median) / (1.4826 · MAD), the MAD scaled to σ for normal data (Iglewicz &
-Hoaglin, *How to Detect and Handle Outliers*, 1993, who flag |z| > 3.5), computed among the units
+Hoaglin, *How to Detect and Handle Outliers*, 1993, who flag abs(z) > 3.5), computed among the units
 of the same finding (the family named first, or none).
 """
 

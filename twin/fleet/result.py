@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from twin.diagnosis.records import Withheld
+from twin.fleet.fragment import fleet_html
 
 #: the ``kind`` of every line of ``units.jsonl``: a line without it is not a fleet's unit record
 KIND = "twin-fleet-unit"
@@ -387,6 +388,7 @@ class FleetResult:
     outlier_threshold: float
     outliers: tuple[Outlier, ...]
     failed: tuple[FailedUnit, ...]
+    _repr_html_ = fleet_html  # a notebook shows the sentences and tables of twin.fleet.fragment
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from twin.fleet.fragment import DISTRIBUTION_HEADER, PREVALENCE_HEADER, distribution_rows, prevalence_rows
 from twin.fleet.population import unit_values
 from twin.fleet.result import FleetRow, Population
 from twin.reporting.page import Page
@@ -15,14 +16,14 @@ from twin.reporting.page import Page
 MAX_HISTOGRAMS = 12
 
 
-def _fig(figsize=(7, 3.4)):
+def _fig(figsize=(7, 3.4), rows: int = 1, cols: int = 1):
     import matplotlib
 
     if matplotlib.get_backend().lower() != "agg":
         matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    return plt.subplots(figsize=figsize)
+    return plt.subplots(rows, cols, figsize=figsize, squeeze=False) if rows * cols > 1 else plt.subplots(figsize=figsize)
 
 
 def _prevalence_png(pop: Population) -> str | None:
@@ -42,18 +43,36 @@ def _prevalence_png(pop: Population) -> str | None:
     return png_base64(fig)
 
 
-def _histogram_png(name: str, units: list[str], x: np.ndarray, unit: str, flagged: set[str], threshold: float) -> str:
+def _histograms_png(pop: Population, per_unit: dict[str, dict[str, float]]) -> str | None:
+    """One figure of small histograms, a panel per quantity held by at least three units (the most
+    widely held first, at most :data:`MAX_HISTOGRAMS`): median line, outliers of their group in red."""
     from twin.reporting.plots import png_base64
 
-    fig, ax = _fig((4.6, 3.0))
-    ax.hist(x, bins=min(30, max(5, len(x) // 4)), color="#8aa9d6")
-    out = np.array([u in flagged for u in units])
-    if out.any():
-        ax.plot(x[out], np.zeros(out.sum()), "rv", label=f"outlier in its group (|robust z| > {threshold:g})")
-        ax.legend(fontsize=7)
-    ax.axvline(np.median(x), color="k", lw=1)
-    ax.set_xlabel(f"{name} [{unit}]" if unit else name, fontsize=8)
-    ax.set_ylabel("units")
+    names = [k for k in sorted(pop.parameters, key=lambda k: (-pop.parameters[k].units, k))
+             if sum(k in v for v in per_unit.values()) >= 3][:MAX_HISTOGRAMS]
+    if not names:
+        return None
+    cols = min(3, len(names))
+    rows = -(-len(names) // cols)
+    fig, axes = _fig((11, 2.7 * rows), rows, cols)
+    for ax in np.ravel(axes)[len(names):]:
+        ax.set_visible(False)
+    for ax, name in zip(np.ravel(axes), names):
+        units = [u for u in per_unit if name in per_unit[u]]
+        x = np.array([per_unit[u][name] for u in units])
+        flagged = {o.unit for o in pop.outliers if o.quantity == name}
+        ax.hist(x, bins=min(30, max(5, len(x) // 4)), color="#8aa9d6")
+        out = np.array([u in flagged for u in units])
+        if out.any():
+            ax.plot(x[out], np.zeros(out.sum()), "rv", label=f"outlier (|robust z| > {pop.outlier_threshold:g})")
+            ax.legend(fontsize=7)
+        ax.axvline(np.median(x), color="k", lw=1)
+        unit = pop.parameters[name].unit
+        ax.set_title(f"{name} [{unit}]" if unit else name, fontsize=9)
+        ax.set_ylabel("units", fontsize=8)
+        ax.yaxis.get_major_locator().set_params(integer=True)
+        ax.tick_params(labelsize=8)
+    fig.tight_layout()
     return png_base64(fig)
 
 
@@ -72,6 +91,7 @@ def _ratio_png(records: list[FleetRow]) -> str | None:
     ax.plot(i[named], ratio[named], "o", ms=3, color="#c23", label="an effect named")
     ax.axhline(1.0, color="k", lw=0.8)
     ax.set_xlabel("unit (sorted by id)")
+    ax.xaxis.get_major_locator().set_params(integer=True)
     ax.set_ylabel("residual RMS / noise floor")
     ax.legend(fontsize=7)
     return png_base64(fig)
@@ -99,24 +119,15 @@ def write_summary(out_dir: Path, records: list[FleetRow], pop: Population, title
     confidence = ", ".join(f"{k} {v}" for k, v in pop.confidence.items()) or "none"
     page = Page(title, [f"{pop.units} units: {pop.ok} analysed, {pop.errors} failed. Confidence labels: {confidence}."])
     page.heading("Named effects")
-    page.table([[label, k, v.units, f"{100 * v.share:.1f} %", f"[{100 * v.ci95[0]:.1f}, {100 * v.ci95[1]:.1f}] %"]
-                for label, counted in (("named", pop.prevalence), ("family named", pop.prevalence_by_family),
-                                       ("family named first", pop.prevalence_primary_family))
-                for k, v in counted.items()], ["counted as", "effect or family", "units", "share", "Wilson 95 %"])
+    page.table(prevalence_rows(pop), PREVALENCE_HEADER, merge=1)
     page.figure(_prevalence_png(pop), "prevalence of each named effect")
     page.heading("Residual over the noise floor").figure(_ratio_png(records), "per unit; 1 = nothing left but noise")
     page.heading("Parameter distributions")
-    page.table([[k, v.unit, v.units, f"{v.median:.4g}", f"{v.mad:.3g}", f"{v.q05:.4g}", f"{v.q95:.4g}"]
-                for k, v in pop.parameters.items()], ["quantity", "unit", "units", "median", "MAD", "5 %", "95 %"])
-    for name in sorted(pop.parameters, key=lambda k: (-pop.parameters[k].units, k))[:MAX_HISTOGRAMS]:
-        units = [u for u in per_unit if name in per_unit[u]]
-        if len(units) >= 3:
-            x = np.array([per_unit[u][name] for u in units])
-            flagged = {o.unit for o in pop.outliers if o.quantity == name}
-            page.figure(_histogram_png(name, units, x, pop.parameters[name].unit, flagged, pop.outlier_threshold),
-                        f"{name}: {len(units)} units")
-    page.heading(f"Outliers (|robust z| > {pop.outlier_threshold:g}, z = (x − median) / (1.4826 MAD) among the units "
-                 "of the same finding)")
+    page.table(distribution_rows(pop), DISTRIBUTION_HEADER)
+    page.figure(_histograms_png(pop, per_unit), "each quantity over the units that have it (black line: the median)")
+    page.heading("Outliers")
+    page.text(f"Units whose |robust z| > {pop.outlier_threshold:g}, z = (x − median) / (1.4826 MAD) among the units "
+              "of the same finding.")
     page.table([[o.unit, o.quantity, o.group, f"{o.value:.4g}", f"{o.robust_z:+.1f}"] for o in pop.outliers],
                ["unit", "quantity", "among units of finding", "value", "robust z"])
     page.heading("Failed units").table([[f.unit, f.error] for f in pop.failed], ["unit", "error"])

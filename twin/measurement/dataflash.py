@@ -77,11 +77,39 @@ def _quiet():
             os.close(saved)
 
 
+IMU_ROW_FIELDS = ("time", "AccX", "AccY", "AccZ", "temperature", *GYRO_FIELDS, "time scale")
+CHUNK_ROWS = 1 << 16  # IMU rows held as Python lists before they become one float64 block
+
+
+class _Rows:
+    """One instance's IMU rows: Python lists only until :data:`CHUNK_ROWS` of them, then a float64
+    block (a list row costs ~5× its floats: a long log's lists were the reader's peak)."""
+
+    def __init__(self, path: Path):
+        self.path, self.pending, self.blocks = path, [], []
+
+    def append(self, row: list) -> None:
+        self.pending.append(row)
+        if len(self.pending) >= CHUNK_ROWS:
+            self.blocks.append(_float_table(self.pending, IMU_ROW_FIELDS, "IMU", self.path))
+            self.pending = []
+
+    def __bool__(self) -> bool:
+        return bool(self.pending or self.blocks)
+
+    def table(self) -> np.ndarray:
+        """Every row, (n, 9) float64."""
+        if self.pending:
+            self.blocks.append(_float_table(self.pending, IMU_ROW_FIELDS, "IMU", self.path))
+            self.pending = []
+        return self.blocks[0] if len(self.blocks) == 1 else np.concatenate(self.blocks)
+
+
 def _messages(path: Path):
     """``(IMU rows by instance, gyro-less instances, TCLR rows by instance, parameters)`` from pymavlink's parse."""
     from pymavlink.DFReader import DFReader_binary
 
-    imu, tclr, no_gyro, layouts = defaultdict(list), defaultdict(list), set(), {}
+    imu, tclr, no_gyro, layouts = defaultdict(lambda: _Rows(path)), defaultdict(list), set(), {}
     try:
         with _quiet():
             log = DFReader_binary(str(path), zero_time_base=True)
@@ -226,10 +254,9 @@ def _id_param(names: tuple[str, ...], instance: int) -> str | None:
     return names[instance] if instance < len(names) else None
 
 
-def _imu_log(instance: int, rows: list, has_gyro: bool, tclr_rows: list, params: dict, path: Path) -> ImuLog:
+def _imu_log(instance: int, rows: _Rows, has_gyro: bool, tclr_rows: list, params: dict, path: Path) -> ImuLog:
     where = f"{path} IMU instance {instance}"
-    fields = ("time", "AccX", "AccY", "AccZ", "temperature", *GYRO_FIELDS, "time scale")
-    table = _float_table(rows, fields, "IMU", path)
+    table = rows.table()
     if has_gyro and not np.any(table[:, 5:8]):  # a board without that gyro logs GyrX..Z as 0: no gyro, not a
         has_gyro = False  # still one (its calibration would write zero INS_TCALn_GYR* over the vehicle's)
     time_s = table[:, 0] * table[:, 8]

@@ -161,7 +161,7 @@ def assess_log(log: ImuLog, settings: QualitySettings | None = None, **overrides
 
 
 def assess_measurement(m: Measurement, settings: QualitySettings | None = None, **overrides) -> LogQuality:
-    """The same for a single-axis measurement: no |a| test, no face labels or handling (one axis
+    """The same for a single-axis measurement: no ‖a‖ test, no face labels or handling (one axis
     cannot give a direction); stretches' ``gravity_g`` is the axis' mean.
 
     Parameters
@@ -229,7 +229,7 @@ def _assess(time_s, temperature_c, accel_g, gyro_rad_s, where: str, s: QualitySe
 
 def _mark_turning(code, t, mean_a, breaks, s: QualitySettings) -> dict[int, str]:
     """Still stretches whose gravity direction turns by more than ``turn_deg`` become moving (a
-    board rotated slowly on a turntable or a sagging mount reads steady σ and |a|); returns their
+    board rotated slowly on a turntable or a sagging mount reads steady σ and ‖a‖); returns their
     reasons by first row."""
     out = {}
     for i, j in runs(code == STATIC, breaks):

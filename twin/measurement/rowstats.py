@@ -147,11 +147,16 @@ def runs(mask: np.ndarray, breaks=()) -> list[tuple[int, int]]:
     list of tuple of int
         Half-open row ranges.
     """
-    edge, cuts, out = np.diff(np.r_[0, mask.astype(np.int8), 0]), np.asarray(breaks, int), []
-    for i, j in zip(np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)):
-        bounds = np.r_[i, cuts[(cuts > i) & (cuts < j)], j]
-        out += [(int(p), int(q)) for p, q in zip(bounds[:-1], bounds[1:])]
-    return out
+    # vectorised: a row starts a run when it is flagged and its predecessor is not, or a break falls
+    # on it inside a run (a thermometer repeating its 0.01 °C steps at 100 Hz makes 10⁵ runs)
+    m = np.asarray(mask, bool)
+    n = m.size
+    cut = np.zeros(n + 1, bool)
+    cuts = np.asarray(breaks, int).ravel()
+    cut[cuts[(cuts > 0) & (cuts < n)]] = True
+    start = m & ~np.r_[False, m[:-1]] | m & cut[:n]
+    stop = m & ~np.r_[m[1:], False] | m & cut[1:]
+    return list(zip(np.flatnonzero(start).tolist(), (np.flatnonzero(stop) + 1).tolist()))
 
 
 def frozen_rows(t: np.ndarray, T: np.ndarray, frozen_s: float) -> np.ndarray:
@@ -174,9 +179,9 @@ def frozen_rows(t: np.ndarray, T: np.ndarray, frozen_s: float) -> np.ndarray:
     """
     out = np.zeros(T.size, bool)
     same = np.r_[False, np.diff(T) == 0]
-    for i, j in runs(same):
-        if t[j - 1] - t[i - 1] > frozen_s:
-            out[i - 1:j] = True
+    spans = np.array(runs(same), int).reshape(-1, 2)
+    for i, j in spans[t[spans[:, 1] - 1] - t[spans[:, 0] - 1] > frozen_s]:
+        out[i - 1:j] = True
     rest = ~same[1:][~out[1:]]  # the steps outside the long runs: do they change?
     if rest.size < 10 or np.mean(rest) < 0.5:
         out[:] = False
@@ -184,7 +189,7 @@ def frozen_rows(t: np.ndarray, T: np.ndarray, frozen_s: float) -> np.ndarray:
 
 
 def clipped_rows(a: np.ndarray, range_g: float) -> np.ndarray:
-    """|a| beyond ``range_g``, or at the axis' log maximum (above 2 g: gravity alone never gets
+    """‖a‖ beyond ``range_g``, or at the axis' log maximum (above 2 g: gravity alone never gets
     there) for ≥ 3 consecutive samples: a saturated converter reads one value.
 
     Parameters

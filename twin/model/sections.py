@@ -147,7 +147,7 @@ class LayerSection(Section):
 
 
 def _default_layers() -> list[LayerSection]:
-    # Handbook values: Al 6061, FR-4, Si, epoxy mould compound (physics-notes §1.4, [T]).
+    # Handbook values: Al 6061, FR-4, Si, epoxy mould compound (docs/physics.md §1.6; typical values).
     return [
         LayerSection(name="fixture", thickness_mm=5.0, conductivity_w_per_mk=167.0, density_kg_per_m3=2700.0,
                      specific_heat_j_per_kgk=896.0, cells=4),
@@ -232,7 +232,7 @@ class SensorSection(Section):
 
 
 class GeometrySection(Section):
-    """Comb microstructure (paper §2.1, physics-notes §2.5); used by the microstructure effects.
+    """Comb microstructure (paper §2.1, docs/physics.md §2.5); used by the microstructure effects.
     Defaults: ``sim.microstructure.CombGeometry``."""
 
     b_um: PositiveFloat = default_of(CombGeometry, "b_um")

@@ -12,9 +12,14 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from twin.finding.fragment import CANDIDATE_HEADER, candidate_rows, mg, summary_sentences
 from twin.finding.ledger import append_ledger
 from twin.finding.result import CompareResult
+from twin.html import DASH, number
 from twin.reporting.page import Page
+
+#: how each grouping of the residual reads in the report
+GROUPINGS = {"segment": "segment", "orientation": "orientation", "run": "run", "temperature_bin_c": "temperature [°C]"}
 
 if TYPE_CHECKING:
     from twin.diagnosis.diagnose import Diagnosis
@@ -72,24 +77,14 @@ def write_report(directory: Path, d: Diagnosis, result: CompareResult, ledger: l
     Path
         The page written.
     """
-    mg = lambda g: f"{g * 1e3:.3f}"  # noqa: E731
-    floors = f"noise floor {mg(result.noise_floor_g)} mg from the data" + (
-        "" if result.noise_floor_model_g is None else f", {mg(result.noise_floor_model_g)} mg from the sensor model")
-    page = Page(title, [result.finding, _named(result),
-                        f"Residual RMS {mg(result.rms_residual_g)} mg at {result.sample_rate_hz:.3g} Hz; {floors}; "
-                        f"held-out RMS ({result.noise_model.average_s:g}-s means) {mg(result.heldout_rms_g)} mg. "
-                        f"Model: {', '.join(result.effects) or 'offsets only'}; noise model AR({result.noise_model.ar_order})."])
+    page = Page(title, summary_sentences(result))
     _finding_sections(page, result)
     page.heading("Test-plan audit: what this data cannot tell apart")
     page.table([[", ".join(a.effects), a.aliased_with or "each other", a.remedy] for a in result.aliases]
                + [[u.effect, u.reason, u.remedy] for u in result.untestable],
                ["effects", "aliased with / why", "what would separate them"])
     page.heading("Candidates (best first)")
-    page.table([[c.effect, c.family, "yes" if c.significant else "no", f"{c.delta_bic:.1f}", f"{c.p_adjusted:.2g}",
-                 f"{100 * c.heldout_gain:.1f} %", f"{100 * c.explained_fraction:.1f} %", mg(c.rms_residual_g),
-                 ", ".join(f"{k} = {v:.3g}" for k, v in c.parameters.items())] for c in result.candidates],
-               ["effect", "family", "significant", "ΔBIC", "p (Bonferroni)", "held-out gain", "explained",
-                "RMS after [mg]", "best grid point"])
+    page.table(candidate_rows(result), CANDIDATE_HEADER)
     params = []
     for eff, entry in result.parameters.items():
         for name, item in entry.items():
@@ -97,29 +92,23 @@ def write_report(directory: Path, d: Diagnosis, result: CompareResult, ledger: l
                 continue
             ci = item.ci95
             flag = "on bound" if item.on_bound else "outside range" if item.outside_physical_range else item.pinned or ""
-            params.append([eff, name, f"{item.value:.4g}", item.unit, f"[{ci[0]:.4g}, {ci[1]:.4g}]" if ci else "-", flag])
+            params.append([eff, name, number(item.value, ".4g"), item.unit, f"[{ci[0]:.4g}, {ci[1]:.4g}]" if ci else DASH,
+                           flag])
     page.heading("Parameters (95 % intervals)")
-    page.table(params, ["effect", "parameter", "value", "unit", "95 % interval", "flag"])
+    page.table(params, ["effect", "parameter", "value", "unit", "95 % interval", "flag"], merge=1)
     page.heading("The calibrated twin").code(d.fit.equation(d.problem.nuisance_names))
     page.heading("Ledger: the error step by step")
-    page.table([[e["time_utc"], " + ".join(e["model"]), mg(e["rms_residual_g"]), mg(e["heldout_rms_g"]),
-                 mg(e["noise_floor_g"]), "-" if e.get("delta_bic") is None else f"{e['delta_bic']:.1f}"] for e in ledger],
+    page.table([[e["time_utc"].replace("T", " ").removesuffix("+00:00"), " + ".join(e["model"]), mg(e["rms_residual_g"]),
+                 mg(e["heldout_rms_g"]), mg(e["noise_floor_g"]), number(e.get("delta_bic"), ".1f")] for e in ledger],
                ["time (UTC)", "model", "RMS [mg]", "held-out [mg]", "floor [mg]", "ΔBIC vs previous"])
     seg = result.residual
     page.heading("Where it fails")
-    page.table([[group.replace("_", " "), k, mg(v)] for group in ("segment", "orientation", "run", "temperature_bin_c")
-                for k, v in (getattr(seg, group) or {}).items()], ["grouping", "value", "RMS [mg]"])
+    page.table([[label, k.replace("..", " to "), mg(v)] for group, label in GROUPINGS.items()
+                for k, v in (getattr(seg, group) or {}).items()], ["grouping", "value", "RMS [mg]"], merge=1)
     page.heading("Plots")
     for t, b in _figures(d, ledger):
         page.figure(b, t)
     return page.write(directory / "report.html")
-
-
-def _named(result: CompareResult) -> str:
-    """The verdict in words: what is named missing, and how sure."""
-    if not result.selected:
-        return f"No missing effect is named (confidence: {result.confidence})."
-    return f"Named missing: {', '.join(result.selected)} (confidence: {result.confidence})."
 
 
 def _finding_sections(page: Page, result: CompareResult) -> None:

@@ -213,9 +213,12 @@ class DwellSettlingDisplay(Display):
     ----------
     curves : list of (np.ndarray, np.ndarray)
         Per dwell: minutes since its start [min] and the residual [mg].
+    starts_h : list of float
+        When each dwell starts [h] (the legend).
     """
 
     curves: list = field(default_factory=list)  # (minutes since dwell start, residual [mg]) per dwell
+    starts_h: list = field(default_factory=list)  # when each dwell starts [h]
     figsize = (6.5, 3.8)
     title = "Dwell settling (minutes: lag; hours: creep; flat: static)"
 
@@ -243,11 +246,13 @@ class DwellSettlingDisplay(Display):
             while e < dwell.size and dwell[e]:
                 e += 1
             curves.append(((m.time_s[s:e] - m.time_s[s]) / 60, uniform_filter1d(r_mg[s:e], w, mode="nearest")))
-        return cls(curves)
+        return cls(curves, [(m.time_s[s] - m.time_s[0]) / 3600 for s in starts[:8]])
 
     def _draw(self, ax):
-        for minutes, residual_mg in self.curves:
-            ax.plot(minutes, residual_mg, lw=1)
+        for k, (minutes, residual_mg) in enumerate(self.curves):
+            ax.plot(minutes, residual_mg, lw=1, label=f"dwell from {self.starts_h[k]:.2f} h" if k < len(self.starts_h) else None)
+        if self.starts_h:
+            ax.legend(fontsize=8, ncol=2)
         ax.set_xlabel("time since dwell start [min]")
         ax.set_ylabel("residual, 1-min mean [mg]")
 

@@ -28,12 +28,14 @@ class CandidateRankingDisplay(Display):
 
     @classmethod
     def from_diagnosis(cls, d, top: int = 8):
-        """``None`` when nothing was screened.
+        """The ranking of a diagnosis's screened candidates; ``None`` when nothing was screened.
+
         Parameters
         ----------
         d : Diagnosis
-    top : int
-        Candidates shown, best first.
+            The diagnosis whose candidates are ranked.
+        top : int
+            Candidates shown, best first.
 
         Returns
         -------
@@ -83,13 +85,21 @@ class LedgerDisplay(Display):
         """
         if len(ledger) < 2:
             return None
-        labels = ["+".join(e["model"]) if len(e["model"]) < 4 else f"… +{e['model'][-1]}" for e in ledger]
+        models = [list(e["model"]) for e in ledger]
+        labels = ["\n+ ".join(models[0]) or "offsets only"] + [_step(a, b) for a, b in zip(models, models[1:])]
         return cls(labels, [e["rms_residual_g"] * 1e3 for e in ledger], [e["noise_floor_g"] * 1e3 for e in ledger])
 
     def _draw(self, ax):
         x = range(len(self.labels))
         ax.plot(x, self.rms_mg, "o-", label="residual RMS")
         ax.plot(x, self.noise_floor_mg, "--", label="noise floor")
-        ax.set_xticks(x, self.labels, rotation=20, ha="right", fontsize=7)
+        ax.set_xticks(x, self.labels, fontsize=8)
+        ax.set_xmargin(0.15)
         ax.set_ylabel("mg")
         ax.legend(fontsize=8)
+
+
+def _step(before: list[str], after: list[str]) -> str:
+    """A ledger step in words: the effects added (+) and removed (−) between two models."""
+    changes = [f"+ {e}" for e in after if e not in before] + [f"− {e}" for e in before if e not in after]
+    return "\n".join(changes) or "same model"

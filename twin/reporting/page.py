@@ -7,31 +7,56 @@ their box rather than running off the page, equations wrapped.
 
 from __future__ import annotations
 
-import html
+import base64
 from pathlib import Path
 
+from twin import html as markup
 from twin.io import atomic_write_text
+from twin.reporting.plots import PNG_DPI
+
+#: CSS pixels per inch of a figure: every plot's text shows at one size, whatever its figure size
+CSS_PX_PER_INCH = 100
+#: narrowest a plot is shown [CSS px] (narrower only on a narrower screen)
+MIN_FIGURE_PX = 600
 
 STYLE = """
-body{font-family:system-ui,sans-serif;max-width:1150px;margin:auto;padding:1em;line-height:1.4;color:#222}
-h1{font-size:1.6em} h2{margin-top:1.6em;border-bottom:1px solid #ddd} h3{margin-top:1.2em}
-.summary{background:#f4f7ff;padding:.8em 1em;border-left:4px solid #36c}
+body{font-family:system-ui,sans-serif;max-width:1150px;margin:auto;padding:1em;line-height:1.4;color:#222;
+overflow-wrap:break-word}
+h1{font-size:1.6em} h2{margin-top:1.6em;border-bottom:1px solid #ddd} h3{margin-top:1.2em} h4{margin:1em 0 .3em}
+.summary{background:#f4f7ff;padding:.2em 1em;border-left:4px solid #36c}
 .scroll{overflow-x:auto;max-width:100%}
 table{border-collapse:collapse;margin:.5em 0}
 td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px;vertical-align:top}
 th{background:#f3f3f3;text-align:left}
-td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
+.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap} th.num{text-align:right}
+p.empty{color:#777;font-size:13px}
 pre{white-space:pre-wrap;overflow-wrap:anywhere;background:#fafafa;padding:.5em;border:1px solid #eee;font-size:13px}
-figure{display:inline-block;margin:6px;max-width:100%} img{max-width:100%;height:auto}
+pre .line{display:block;padding-left:4ch;text-indent:-4ch}
+figure{display:block;margin:1em 0;max-width:100%} img{max-width:100%;height:auto}
 figcaption{font-size:13px;color:#555}
 """
 
 
-def _cell(value) -> str:
-    """A table cell: numbers right-aligned (already formatted by the caller), everything escaped."""
-    text = html.escape(str(value))
-    numeric = text.replace(".", "", 1).replace("-", "", 1).replace("+", "", 1).replace(" %", "").isdigit()
-    return f"<td class='num'>{text}</td>" if numeric else f"<td>{text}</td>"
+def figure_width(png_base64: str) -> int | None:
+    """The width a plot is shown at [CSS px]: its figure width at :data:`CSS_PX_PER_INCH`, at least
+    :data:`MIN_FIGURE_PX` (None when ``png_base64`` is not a PNG).
+
+    Parameters
+    ----------
+    png_base64 : str
+        A PNG written at :data:`twin.reporting.plots.PNG_DPI`, base64-encoded.
+
+    Returns
+    -------
+    int or None
+    """
+    try:
+        head = base64.b64decode(png_base64[:44])
+    except ValueError:
+        return None
+    if not head.startswith(b"\x89PNG") or len(head) < 24:
+        return None
+    return max(MIN_FIGURE_PX, round(int.from_bytes(head[16:20], "big") * CSS_PX_PER_INCH / PNG_DPI))
 
 
 class Page:
@@ -47,10 +72,7 @@ class Page:
 
     def __init__(self, title: str, summary: list[str] | tuple[str, ...] = ()):
         self.title = title
-        self._parts: list[str] = [f"<h1>{html.escape(title)}</h1>"]
-        if summary:
-            self._parts.append("<div class='summary'>" + "".join(f"<p>{html.escape(s)}</p>" for s in summary if s)
-                               + "</div>")
+        self._parts: list[str] = [f"<h1>{markup.escape(title)}</h1>", markup.paragraphs(summary, "summary")]
 
     def heading(self, text: str, level: int = 2) -> Page:
         """Add a section heading.
@@ -59,14 +81,14 @@ class Page:
         ----------
         text : str
         level : int
-            HTML heading level, 2 or 3.
+            HTML heading level, 2 to 4.
 
         Returns
         -------
         Page
             This page, for chaining.
         """
-        self._parts.append(f"<h{level}>{html.escape(text)}</h{level}>")
+        self._parts.append(markup.heading(text, level))
         return self
 
     def text(self, *sentences: str) -> Page:
@@ -83,11 +105,12 @@ class Page:
         """
         body = " ".join(s for s in sentences if s)
         if body:
-            self._parts.append(f"<p>{html.escape(body)}</p>")
+            self._parts.append(markup.paragraphs([body]))
         return self
 
-    def table(self, rows: list[list], header: list[str], caption: str = "") -> Page:
-        """Add a table; cells are formatted by the caller (units belong in the header).
+    def table(self, rows: list[list], header: list[str], caption: str = "", merge: int = 0) -> Page:
+        """Add a table (see :func:`twin.html.table_html`); cells are formatted by the caller, units belong
+        in the header. Without rows, a line saying there is nothing to list.
 
         Parameters
         ----------
@@ -96,16 +119,15 @@ class Page:
         header : list of str
             Column names with their units.
         caption : str
+        merge : int
+            Leading columns whose repeated values are shown once.
 
         Returns
         -------
         Page
             This page, for chaining.
         """
-        head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
-        body = "".join("<tr>" + "".join(_cell(c) for c in r) + "</tr>" for r in rows)
-        cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
-        self._parts.append(f"<div class='scroll'><table>{cap}<tr>{head}</tr>{body}</table></div>")
+        self._parts.append(markup.table_html(rows, header, caption, merge) or "<p class='empty'>(nothing to list)</p>")
         return self
 
     def figure(self, png_base64: str | None, caption: str = "") -> Page:
@@ -123,9 +145,10 @@ class Page:
             This page, for chaining.
         """
         if png_base64 is not None:
-            cap = f"<figcaption>{html.escape(caption)}</figcaption>" if caption else ""
-            self._parts.append(f"<figure><img src='data:image/png;base64,{png_base64}' alt='{html.escape(caption)}'>"
-                               f"{cap}</figure>")
+            width = figure_width(png_base64)
+            cap = f"<figcaption>{markup.escape(caption)}</figcaption>" if caption else ""
+            self._parts.append(f"<figure><img src='data:image/png;base64,{png_base64}' alt='{markup.escape(caption)}'"
+                               f"{'' if width is None else f' width={width}'}>{cap}</figure>")
         return self
 
     def code(self, text: str) -> Page:
@@ -140,7 +163,7 @@ class Page:
         Page
             This page, for chaining.
         """
-        self._parts.append(f"<pre>{html.escape(text)}</pre>")
+        self._parts.append(markup.code(text))
         return self
 
     def render(self) -> str:
@@ -151,7 +174,7 @@ class Page:
         str
         """
         return (f"<!doctype html><html lang='en'><head><meta charset='utf-8'><meta name='viewport' "
-                f"content='width=device-width,initial-scale=1'><title>{html.escape(self.title)}</title>"
+                f"content='width=device-width,initial-scale=1'><title>{markup.escape(self.title)}</title>"
                 f"<style>{STYLE}</style></head><body>{''.join(self._parts)}</body></html>")
 
     def write(self, path: Path) -> Path:

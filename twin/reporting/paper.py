@@ -82,7 +82,7 @@ def eq45_minimum() -> dict:
     """Global minimum of eq. (45) on [−2, 2]²: closed form, confirmed numerically.
 
     The minimum lies on the edge y = −2, where z = 2 sin(2πx) − x; there
-    x* = 7/4 + arcsin(1/(4π))/(2π) and z* = −2√(1 − 1/(16π²)) − x* (physics-notes §2.6).
+    x* = 7/4 + arcsin(1/(4π))/(2π) and z* = −2√(1 − 1/(16π²)) − x* (docs/physics.md §2.6).
 
     Returns
     -------

@@ -10,6 +10,8 @@ from __future__ import annotations
 import base64
 import io
 
+#: resolution of every embedded plot: 1.5 PNG pixels per CSS pixel of the page (twin.reporting.page)
+PNG_DPI = 150
 
 
 def _axes(ax, figsize):
@@ -39,7 +41,7 @@ def png_base64(display_or_figure) -> str:
 
     fig = getattr(display_or_figure, "figure_", display_or_figure)
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90, bbox_inches="tight")
+    fig.savefig(buf, format="png", dpi=PNG_DPI, bbox_inches="tight")
     plt.close(fig)
     return base64.b64encode(buf.getvalue()).decode()
 

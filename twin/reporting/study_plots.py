@@ -145,7 +145,10 @@ class SplitRatioDisplay(Display):
     def _draw(self, ax):
         ax.bar(self.models, self.ratios, color="C1")
         ax.axhline(1.0, color="k", ls=":")
-        ax.set_yscale("log")
+        if max(self.ratios, default=1.0) > 10 * max(min(self.ratios, default=1.0), 1e-12):
+            ax.set_yscale("log")  # a log axis only where the ratios span a decade: no 1.07 × 10⁰ ticks
+        else:
+            ax.set_ylim(min(0.98, 0.99 * min(self.ratios, default=1.0)), None)
         ax.set_ylabel("MSE / noise floor")
         ax.tick_params(axis="x", rotation=30)
 

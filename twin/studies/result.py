@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from twin.studies.fragment import doe_html
+
 
 @dataclass(frozen=True)
 class MainEffect:
@@ -99,3 +101,4 @@ class DoeResult:
     main_effects: dict[str, dict[str, MainEffect]]
     interactions: dict[str, dict[str, float]]
     sobol: dict[str, dict[str, SobolIndex]] | None
+    _repr_html_ = doe_html  # a notebook shows the sentences and tables of twin.studies.fragment

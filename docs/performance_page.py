@@ -1,0 +1,89 @@
+"""Render ``docs/performance.md`` from the benchmarks' JSON, so no figure is copied by hand.
+
+Each ``benchmarks/results/*.json`` is written by a script in ``benchmarks/`` (``make bench``) with
+the machine it ran on (CPU model, logical CPUs, BLAS threads, library versions). This page shows,
+for each file, that machine and every scalar figure the file holds, by its key path; per-seed and
+per-row lists are left in the file. Run at the start of every docs build (``docs/conf.py``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+#: keys holding per-row detail or the machine, shown elsewhere or left in the file
+SKIPPED = {"machine", "rows", "per_seed", "seeds_detail", "runs"}
+MAX_DEPTH = 4
+MAX_LIST = 6
+
+
+def _fmt(value) -> str:
+    """One figure, as a reader wants it: 4 significant digits, booleans as yes/no, null as —."""
+    if value is None:
+        return "—"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int):
+        return f"{value:,}"
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            return "—"
+        return f"{value:.4g}"
+    return str(value).replace("|", "/")
+
+
+def _leaves(node, path=()):
+    """(key path, value) of every scalar under ``node``; short lists of scalars as one value."""
+    if isinstance(node, dict):
+        for key, value in node.items():
+            if key in SKIPPED or len(path) >= MAX_DEPTH:
+                continue
+            yield from _leaves(value, path + (str(key),))
+    elif isinstance(node, list):
+        if len(node) <= MAX_LIST and all(not isinstance(v, (dict, list)) for v in node):
+            yield path, ", ".join(_fmt(v) for v in node)
+    else:
+        yield path, _fmt(node)
+
+
+def _section(name: str, data: dict) -> list[str]:
+    """The Markdown of one benchmark file."""
+    machine = data.get("machine", {})
+    title = data.get("benchmark", name)
+    lines = [f"## {title}", "", f"From `benchmarks/results/{name}.json`."]
+    if machine:
+        threads = ", ".join(f"{k}={v}" for k, v in machine.get("thread_env", {}).items()) or "library defaults"
+        libs = ", ".join(f"{k} {v}" for k, v in sorted(machine.get("libraries", {}).items()))
+        lines += ["", f"Measured on **{machine.get('cpu_model', '?')}**, {machine.get('logical_cpus', '?')} logical "
+                      f"CPUs, threads: {threads}; Python {machine.get('python', '?')}; {libs}."]
+    if isinstance(data.get("wall_s"), (int, float)):
+        lines += ["", f"The whole benchmark took {data['wall_s']:.0f} s."]
+    rows = [(" / ".join(p), v) for p, v in _leaves({k: v for k, v in data.items() if k not in ("benchmark", "wall_s")})
+            if p]
+    if rows:
+        lines += ["", "| figure | value |", "|---|---|"] + [f"| {p} | {v} |" for p, v in rows]
+    return lines + [""]
+
+
+def render(results_dir: Path) -> str:
+    """The whole page for every JSON in ``results_dir`` (sorted by name)."""
+    files = sorted(Path(results_dir).glob("*.json"))
+    lines = ["# Performance and accuracy figures", "",
+             "Every figure on this page is read from a benchmark's JSON when the docs are built; nothing "
+             "is copied by hand. Each section names the CPU it was measured on: a figure from another "
+             "machine says nothing about yours. `make bench` re-runs the benchmarks on your machine and "
+             "writes the files again; the scripts are in `benchmarks/`, each comparing against what a user "
+             "would otherwise pick, side by side in one run.", ""]
+    if not files:
+        lines += ["No benchmark results are checked in yet: run `make bench`.", ""]
+    for path in files:
+        lines += _section(path.stem, json.loads(path.read_text()))
+    return "\n".join(lines)
+
+
+def write_performance_page(results_dir: Path, out: Path) -> None:
+    """Write the page only when it changed (Sphinx rebuilds what changed)."""
+    text = render(results_dir)
+    if not out.exists() or out.read_text() != text:
+        out.write_text(text)

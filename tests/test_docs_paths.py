@@ -1,0 +1,88 @@
+"""No path outside the repository in code or docs, and a README that stays a landing page.
+
+A clone has only what is in the repository: code and docs cite ``docs/physics.md §X.Y`` (or
+another docs page), never notes kept beside the project or a machine's absolute path. The real
+logs' location is data, not a citation: it lives in ``tests/conftest.py`` (``SHARED``), which is
+not scanned here. Files the repository ignores (``.gitignore``: built docs, generated pages, caches)
+are not scanned either.
+"""
+
+import fnmatch
+import re
+
+from conftest import ROOT
+
+SCANNED_DIRS = ("twin", "sim", "fitting", "scenarios", "docs")
+SCANNED_FILES = ("README.md",)
+TEXT_SUFFIXES = {".py", ".md", ".rst", ".txt", ".yaml", ".yml", ".json", ".toml", ".cfg", ".ini", ".html",
+                 ".css", ".js", ".csv", ".tsv"}
+FORBIDDEN = re.compile(r"\.\./shared|physics-notes|diagnosis-methods|package-stress|physics_reference\.json"
+                       r"|(?<![\w.])/work/")
+README_MAX_LINES = 200
+
+
+def _ignored_patterns() -> list[str]:
+    gitignore = ROOT / ".gitignore"
+    if not gitignore.exists():
+        return []
+    lines = (line.strip() for line in gitignore.read_text(encoding="utf-8").splitlines())
+    return [line for line in lines if line and not line.startswith(("#", "!"))]
+
+
+def _is_ignored(rel: str, patterns: list[str]) -> bool:
+    parts = rel.split("/")
+    for pattern in patterns:
+        anchored = "/" in pattern.rstrip("/")
+        pat = pattern.strip("/")
+        if pattern.endswith("/"):  # a directory: any prefix of the path (or, unanchored, any component)
+            if anchored:
+                candidates = ["/".join(parts[:i]) for i in range(1, len(parts))]
+            else:
+                candidates = parts[:-1]
+            if any(fnmatch.fnmatchcase(c, pat) for c in candidates):
+                return True
+        elif anchored:
+            if fnmatch.fnmatchcase(rel, pat):
+                return True
+        elif any(fnmatch.fnmatchcase(c, pat) for c in parts):
+            return True
+    return False
+
+
+def scanned_files() -> list:
+    """The repository's text files under the scanned folders, and the README (ignored files left out)."""
+    patterns = _ignored_patterns() + ["__pycache__/", "_build/"]
+    found = [ROOT / name for name in SCANNED_FILES]
+    for folder in SCANNED_DIRS:
+        found += [p for p in (ROOT / folder).rglob("*") if p.is_file() and p.suffix.lower() in TEXT_SUFFIXES]
+    return sorted(p for p in found if p.exists() and not _is_ignored(p.relative_to(ROOT).as_posix(), patterns))
+
+
+def test_no_path_outside_the_repository():
+    files = scanned_files()
+    assert any(p.name == "physics.md" for p in files), "docs/physics.md is not scanned"
+    hits = []
+    for path in files:
+        for number, line in enumerate(path.read_text(encoding="utf-8", errors="replace").splitlines(), 1):
+            match = FORBIDDEN.search(line)
+            if match:
+                hits.append(f"{path.relative_to(ROOT)}:{number}: {match.group(0)!r} in {line.strip()[:100]}")
+    assert not hits, ("cite docs/physics.md (or another docs page) instead of notes outside the repository, "
+                      "and no absolute path:\n" + "\n".join(hits))
+
+
+def test_readme_is_a_landing_page():
+    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= README_MAX_LINES, f"README.md has {len(lines)} lines; move detail into docs/"
+
+
+def test_the_checks_see_what_they_should():
+    assert FORBIDDEN.search("see ../shared/reference/x.md") and FORBIDDEN.search("physics-notes §2.6")
+    assert FORBIDDEN.search("(physics_reference.json FR4_xy)") and FORBIDDEN.search("open('/work/main/x')")
+    assert not FORBIDDEN.search("docs/physics.md §2.6") and not FORBIDDEN.search("/shared/out/line_a")
+    assert not FORBIDDEN.search("path/to/work/x")
+    patterns = ["docs/_build/", "__pycache__/", "*.egg-info/", "docs/performance.md", "out/"]
+    assert _is_ignored("docs/_build/html/index.html", patterns)
+    assert _is_ignored("twin/effects/__pycache__/x.py", patterns)
+    assert _is_ignored("docs/performance.md", patterns)
+    assert not _is_ignored("docs/physics.md", patterns) and not _is_ignored("twin/out.py", patterns)
