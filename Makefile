@@ -31,13 +31,13 @@ run: $(STAMP)
 	$(TWIN) comb scenarios/paper_iis328dq.yaml --json out/comb.json
 	$(TWIN) render scenarios/paper_iis328dq.yaml --temperature 50 --exaggeration 2000 -o out/comb_50C.png
 	$(TWIN) render scenarios/paper_iis328dq.yaml --sweep -20:50:5 --exaggeration 2000 -o out/comb_sweep.gif
-	# the loop: a device with a lag the twin lacks -> compare -> the named effect -> compare again
+	# the loop: a device with a lag the twin lacks -> compare -> every selected effect added -> compare again
 	$(TWIN) run scenarios/hidden_thermal_lag.yaml -o out/hidden.h5 -q
 	$(TWIN) export out/hidden.h5 -o out/hidden.csv
 	rm -rf out/compare
 	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/base.json
 	$(TWIN) compare scenarios/hidden_thermal_lag.yaml out/hidden.csv --report out/compare --json out/compare/after.json \
-		--with-effect $$($(PY) -c "import json; d = json.load(open('out/compare/base.json')); print((d['selected'] + [c['effect'] for c in d['candidates']])[0])")
+		$$($(PY) -c "import json; d = json.load(open('out/compare/base.json')); print(' '.join('--with-effect ' + e for e in d['selected'] or [d['candidates'][0]['effect']]))")
 	# a real three-axis log to a validated compensation and the file ArduPilot loads (when ../shared is beside us;
 	# PX4 needs the vehicle's device id, which a bench log does not record: --device-id)
 	if [ -f $(TOFU) ]; then \

@@ -89,10 +89,11 @@ suppress_warnings = ["config.cache"]  # sphinx_gallery_conf holds a function: no
 
 def _plain_text_bars(app, what, name, obj, options, lines):
     """Our docstrings are plain text where ``|x|`` is a magnitude; reST would read it as a
-    substitution reference. Escape every bar outside literal blocks and code spans."""
+    substitution reference. Escape every bar outside code spans and doctest lines."""
     for i, line in enumerate(lines):
-        if "|" in line and "``" not in line and not line.lstrip().startswith((">>>", "...")):
-            lines[i] = line.replace("|", r"\|")
+        if "|" in line and not line.lstrip().startswith((">>>", "...")):
+            parts = line.split("``")  # odd parts are inside ``code``
+            lines[i] = "``".join(p if k % 2 else p.replace("|", r"\|") for k, p in enumerate(parts))
 
 
 def _skip_generated_members(app, what, name, obj, skip, options):

@@ -47,6 +47,19 @@ def _leaves(node, path=()):
         yield path, _fmt(node)
 
 
+def _pivot(name: str, table: dict) -> list[str]:
+    """A dict of like records (cases, kinds, sizes) as one table: a row per record, a column per figure."""
+    rows = {key: dict((" / ".join(p), v) for p, v in _leaves(rec) if p) for key, rec in table.items()}
+    columns = list(dict.fromkeys(c for r in rows.values() for c in r))
+    head = f"| {name} | " + " | ".join(columns) + " |"
+    return ["", head, "|" + "---|" * (len(columns) + 1)] + \
+        [f"| {key} | " + " | ".join(r.get(c, "") for c in columns) + " |" for key, r in rows.items()]
+
+
+def _is_record_table(value) -> bool:
+    return isinstance(value, dict) and len(value) >= 2 and all(isinstance(v, dict) for v in value.values())
+
+
 def _section(name: str, data: dict) -> list[str]:
     """The Markdown of one benchmark file."""
     machine = data.get("machine", {})
@@ -59,8 +72,15 @@ def _section(name: str, data: dict) -> list[str]:
                       f"CPUs, threads: {threads}; Python {machine.get('python', '?')}; {libs}."]
     if isinstance(data.get("wall_s"), (int, float)):
         lines += ["", f"The whole benchmark took {data['wall_s']:.0f} s."]
-    rows = [(" / ".join(p), v) for p, v in _leaves({k: v for k, v in data.items() if k not in ("benchmark", "wall_s")})
-            if p]
+    rest = {}
+    for key, value in data.items():
+        if key in ("benchmark", "wall_s") or key in SKIPPED:
+            continue
+        if _is_record_table(value):
+            lines += _pivot(key, value)
+        else:
+            rest[key] = value
+    rows = [(" / ".join(p), v) for p, v in _leaves(rest) if p]
     if rows:
         lines += ["", "| figure | value |", "|---|---|"] + [f"| {p} | {v} |" for p, v in rows]
     return lines + [""]

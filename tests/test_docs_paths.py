@@ -86,3 +86,24 @@ def test_the_checks_see_what_they_should():
     assert _is_ignored("twin/effects/__pycache__/x.py", patterns)
     assert _is_ignored("docs/performance.md", patterns)
     assert not _is_ignored("docs/physics.md", patterns) and not _is_ignored("twin/out.py", patterns)
+
+
+def test_performance_page_is_rendered_from_the_json(tmp_path):
+    """Every figure on the performance page comes from a benchmark JSON, with the machine named."""
+    import json
+    import sys
+
+    sys.path.insert(0, str(ROOT / "docs"))
+    from performance_page import render
+
+    (tmp_path / "bench_x.json").write_text(json.dumps({
+        "benchmark": "x vs peer", "wall_s": 12.3,
+        "cases": {"a": {"rate": 0.5, "ci95": [0.4, 0.6]}, "b": {"rate": 0.75, "ok": True}},
+        "ratio_to_peer": 1.234567, "rows": [{"seed": 0}],
+        "machine": {"cpu_model": "AMD EPYC", "logical_cpus": 2, "libraries": {"numpy": "2.0"}}}))
+    page = render(tmp_path)
+    assert "## x vs peer" in page and "**AMD EPYC**, 2 logical CPUs" in page and "numpy 2.0" in page
+    assert "| cases | rate | ci95 | ok |" in page
+    assert "| a | 0.5 | 0.4, 0.6 |  |" in page and "| b | 0.75 |  | yes |" in page
+    assert "| ratio_to_peer | 1.235 |" in page and "seed" not in page  # per-row detail stays in the file
+    assert "took 12 s" in page

@@ -17,13 +17,9 @@ MAX_HISTOGRAMS = 12
 
 
 def _fig(figsize=(7, 3.4), rows: int = 1, cols: int = 1):
-    import matplotlib
+    from twin.reporting.plots import figure_grid
 
-    if matplotlib.get_backend().lower() != "agg":
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt.subplots(rows, cols, figsize=figsize, squeeze=False) if rows * cols > 1 else plt.subplots(figsize=figsize)
+    return figure_grid(figsize, rows, cols)
 
 
 def _prevalence_png(pop: Population) -> str | None:

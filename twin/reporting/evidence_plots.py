@@ -71,13 +71,14 @@ class LedgerDisplay(Display):
     title = "The error falling as effects are added (ledger)"
 
     @classmethod
-    def from_ledger(cls, ledger: list[dict]):
+    def from_ledger(cls, ledger):
         """``None`` for fewer than two ledger entries.
 
         Parameters
         ----------
-        ledger : list of dict
-            The ledger lines of one data set, oldest first.
+        ledger : list of LedgerEntry or dict
+            The ledger of one data set, oldest first: a result's typed entries
+            (``CompareResult.ledger``) or the lines of the ledger file.
 
         Returns
         -------
@@ -85,6 +86,7 @@ class LedgerDisplay(Display):
         """
         if len(ledger) < 2:
             return None
+        ledger = [e if isinstance(e, dict) else vars(e) for e in ledger]
         models = [list(e["model"]) for e in ledger]
         labels = ["\n+ ".join(models[0]) or "offsets only"] + [_step(a, b) for a, b in zip(models, models[1:])]
         return cls(labels, [e["rms_residual_g"] * 1e3 for e in ledger], [e["noise_floor_g"] * 1e3 for e in ledger])

@@ -74,10 +74,7 @@ def tcoff_map_png(table_csv, path, x="device.effects.package_fem.mould_cte_ppm_p
     import os
     from pathlib import Path
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from twin.reporting.plots import figure_grid
 
     with open(table_csv, newline="") as f:
         rows = [r for r in csv.DictReader(f) if r.get("status", "ok").strip('"') == "ok"]
@@ -87,7 +84,8 @@ def tcoff_map_png(table_csv, path, x="device.effects.package_fem.mould_cte_ppm_p
     grid = np.full((len(ys), len(xs)), np.nan)
     for r in rows:
         grid[ys.index(float(r[y])), xs.index(float(r[x]))] = float(r[response])
-    fig, ax = plt.subplots(figsize=(5.2, 3.6), dpi=90)
+    fig, ax = figure_grid((5.2, 3.6))
+    fig.set_dpi(90)
     im = ax.imshow(grid, origin="lower", cmap="viridis", aspect="auto")
     for (i, j), v in np.ndenumerate(grid):
         ax.text(j, i, f"{v:+.2f}", ha="center", va="center", fontsize=8, color="white" if v < np.nanmean(grid) else "black")
@@ -105,6 +103,5 @@ def tcoff_map_png(table_csv, path, x="device.effects.package_fem.mould_cte_ppm_p
         fig.savefig(tmp)
         os.replace(tmp, path)
     finally:
-        plt.close(fig)
         tmp.unlink(missing_ok=True)
     return path

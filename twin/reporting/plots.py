@@ -15,15 +15,36 @@ PNG_DPI = 150
 
 
 def _axes(ax, figsize):
+    # pyplot, without choosing its backend: in a notebook the figure shows inline, on a headless
+    # machine matplotlib falls back to Agg by itself
     if ax is not None:
         return ax
-    import matplotlib
-
-    if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
-        matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt.subplots(figsize=figsize)[1]
+
+
+def figure_grid(figsize: tuple[float, float], rows: int = 1, cols: int = 1):
+    """A figure for a file or a report only: a bare :class:`matplotlib.figure.Figure`, outside
+    pyplot, so drawing it neither switches the user's backend nor needs closing.
+
+    Parameters
+    ----------
+    figsize : tuple of float
+        Width and height [inch].
+    rows, cols : int
+        The grid of axes.
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+    axes : matplotlib.axes.Axes or numpy.ndarray
+        One Axes for a 1 × 1 grid, else a (rows, cols) array.
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(rows, cols, squeeze=rows * cols == 1)
 
 
 def png_base64(display_or_figure) -> str:

@@ -93,7 +93,9 @@ def main_effects(study: Study, rows: list[dict]) -> dict[str, dict[str, MainEffe
             groups = {f"{edges[i]:.4g}..{edges[i + 1]:.4g}": [r for r in ok if edges[i] <= r[f] <= edges[i + 1]]
                       for i in range(4)}
         else:
-            groups = {str(v): [r for r in ok if r[f] == v] for v in sorted(set(vals), key=str)}
+            # numeric levels in numeric order (as text, 15 sorts before 5)
+            levels = sorted(set(vals)) if numeric else sorted(set(vals), key=str)
+            groups = {str(v): [r for r in ok if r[f] == v] for v in levels}
         out[f] = {}
         for resp in responses:
             means = {g: float(np.mean([r[resp] for r in members])) for g, members in groups.items() if members}

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from twin.reporting.study_plots import MainEffectDisplay, ResponseSurfaceDisplay, SobolDisplay
 from twin.studies.result import StudyAnalysis
 from twin.studies.spec import Study
@@ -12,24 +14,19 @@ from twin.studies.spec import Study
 
 def _grid(displays: list[list], size: tuple[float, float], path: Path) -> None:
     """Draw rows of displays into one figure and save it as PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from twin.reporting.plots import figure_grid
 
     rows, cols = len(displays), max(len(r) for r in displays)
-    fig, axes = plt.subplots(rows, cols, figsize=(size[0] * cols, size[1] * rows), squeeze=False)
+    fig, axes = figure_grid((size[0] * cols, size[1] * rows), rows, cols)
+    axes = np.atleast_2d(axes)
     for i, row in enumerate(displays):
         for j, disp in enumerate(row):
             disp.plot(ax=axes[i][j])
     fig.tight_layout()
     from twin.io import atomic_path
 
-    try:
-        with atomic_path(Path(path)) as tmp:  # a kill or a full disk leaves no half image
-            fig.savefig(tmp, dpi=90, format="png")
-    finally:
-        plt.close(fig)
+    with atomic_path(Path(path)) as tmp:  # a kill or a full disk leaves no half image
+        fig.savefig(tmp, dpi=90, format="png")
 
 
 def write_plots(study: Study, rows: list[dict], analysis: StudyAnalysis, out_dir: Path,
