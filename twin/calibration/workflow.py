@@ -27,8 +27,8 @@ from twin.calibration.methods import (
     ArduPilotMethod,
     Px4Method,
 )
-from twin.calibration.models import AXES, TemperaturePolynomial
-from twin.calibration.orientation import cluster_orientations, fit_offset_scale, segments_of
+from twin.calibration.models import TemperaturePolynomial
+from twin.calibration.orientation import orientation_calibration
 from twin.calibration.plausibility import (
     PlausibilityLimits,
     limits_for_part,
@@ -366,50 +366,6 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     return ImuCalibration(first.instance, device, tuple(log.source for log in logs), int(time_s.size), span, rate,
                           protocol.name, validation, fitted, orientations, flags, notes, gyro, qualities, rotation,
                           recommendation, tuple((f.name, f.both_directions) for f in protocol.folds))
-
-
-def orientation_calibration(time_s, temperature_c, accel_g, quality: LogQuality):
-    """Orientations found in a log, and per axis offset(T) and scale factor(T) from its static segments.
-
-    Returns None for a log in one orientation. Otherwise (summary for the document, the static rows,
-    the nominal gravity of every row, zero off those rows): the firmware methods and the twin are then
-    fitted on the static rows with gravity removed, so what they leave is the scale factor they do
-    not model.
-
-    Parameters
-    ----------
-    time_s, temperature_c : ndarray
-        [s], [°C].
-    accel_g : ndarray
-        (n, 3) [g].
-    quality : LogQuality
-
-    Returns
-    -------
-    tuple of (dict, ndarray of bool, ndarray) or None
-    """
-    segments = segments_of(quality, time_s, temperature_c, accel_g)
-    report = cluster_orientations(segments) if segments else None
-    if report is None or len(report.orientations) < 2:
-        return None
-    fit = fit_offset_scale(segments, report, degree=1)
-    keep = np.zeros(len(time_s), bool)
-    gravity = np.zeros((len(time_s), 3))
-    for o in report.orientations:
-        for j in o.segments:
-            keep[segments[j].start:segments[j].stop] = True
-            gravity[segments[j].start:segments[j].stop] = o.nominal_g
-    summary = {
-        "kind": report.kind, "found": list(report.found), "missing": list(report.missing),
-        "static_segments": len(segments), "reference_c": fit.reference_c,
-        "tcso_ppm_per_c": {a: {"value": float(fit.scale_ppm[i, 1]), "ci95": list(map(float, fit.scale_ci95_ppm[i, 1]))}
-                           for i, a in enumerate(AXES)},
-        "tcoff_mg_per_c": {a: {"value": float(fit.offset_mg[i, 1]), "ci95": list(map(float, fit.offset_ci95_mg[i, 1]))}
-                           for i, a in enumerate(AXES)},
-        "zero_g_offset_mg": {a: float(fit.offset_mg[i, 0]) for i, a in enumerate(AXES)},
-        "residual_rms_mg": dict(zip(AXES, map(float, fit.residual_rms_mg))), "notes": list(fit.notes),
-    }
-    return summary, keep, gravity
 
 
 def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[list[ImuCalibration], dict[int, str]]:
