@@ -239,9 +239,11 @@ class Protocol:
 
 
 def _fold(name, temperature_c, train, tests, note="", branches=(), min_span_c: float = 10.0) -> Fold:
+    # int32 rows below 2³¹: a long log's folds each hold most of its rows
+    train = np.asarray(train, np.int32 if temperature_c.size < 2**31 else np.int64)
     lo, hi = temperature_c[train].min(), temperature_c[train].max()
     sets = tuple(TestSet(n, i, (temperature_c[i] < lo) | (temperature_c[i] > hi)) for n, i in tests if i.size)
-    return Fold(name, np.asarray(train), sets, note, _directions(temperature_c, train, branches, min_span_c))
+    return Fold(name, train, sets, note, _directions(temperature_c, train, branches, min_span_c))
 
 
 def _directions(temperature_c, train, branches, min_span_c: float) -> tuple[str, ...]:

@@ -11,7 +11,10 @@ Selection (``share="auto"``, ``rate_term="auto"``) uses the training rows only: 
 parameter is a maximum-likelihood fit on them, and the structure — τ's shared by the three axes
 or per axis, rate term per axis or not — is chosen by BIC with an AR(1)-effective sample size.
 Held-out data (e.g. the cooling branches when fitting on heating) must never steer these choices:
-that would turn a validation into a fit.
+that would turn a validation into a fit. On a log sampled faster than 2 Hz the time constants and
+the structure are searched on 1-s means of the training rows, and the amplitudes, the residual's
+σ and the effective sample size come from every row (:mod:`twin.calibration.lagprofile`): the fit
+costs a few passes over the log, not one per trial.
 """
 
 from __future__ import annotations
@@ -20,7 +23,8 @@ import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
 from twin.calibration.lag import fit_inputs, lagged_c, validated_log
-from twin.calibration.lagfit import Z95, Profile, covariance, search
+from twin.calibration.lagfit import Z95, linear_fit, search
+from twin.calibration.lagprofile import Profile
 from twin.calibration.models import AXES, CompensatorBase, poly_text, to_mg_per_c
 from twin.errors import TwinError
 
@@ -115,14 +119,7 @@ class LagAwareCompensator(CompensatorBase):
         return self
 
     def _fit_linear(self, profile: Profile) -> None:
-        coef, rms = [], np.zeros(3)
-        for a in range(3):
-            g = self.tau_rate_s_[a] if self.rate_used_[a] else None
-            F = profile.design(self.tau_die_s_[a], g, profile.keep)
-            c, *_ = np.linalg.lstsq(F, profile.y[:, a], rcond=None)
-            coef.append(c)
-            rms[a] = np.sqrt(np.mean((profile.y[:, a] - F @ c) ** 2)) * 1e3
-        lin_cov, se_d, se_g = covariance(profile, self.tau_die_s_, self.tau_rate_s_, coef, self.shared_)
+        coef, rms, lin_cov, se_d, se_g = linear_fit(profile, self.tau_die_s_, self.tau_rate_s_, self.shared_)
         d = self.degree + 1
         self.coef_mg_ = np.array([to_mg_per_c(c[:d]) for c in coef])
         self.coef_se_mg_ = np.array([to_mg_per_c(np.sqrt(np.diag(v)[:d])) for v in lin_cov])

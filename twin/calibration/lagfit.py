@@ -1,8 +1,11 @@
 """Variable-projection search for the lag-aware model's time constants, and its covariance.
 
 For given time constants the model is linear, so every trial (τ_die, τ_rate) costs two cached
-lags and one least-squares solve for the three axes at once. Only the training rows' accelerations
-enter; the lags run over the whole temperature log (an input).
+lags and one least-squares solve for the three axes at once (:class:`~twin.calibration.lagprofile.Profile`:
+on block means of a fast log). Only the training rows' accelerations enter; the lags run over the
+whole temperature log (an input). The candidates are scored (BIC) with the search's SSE and an
+effective sample size from the full-rate residual; the final amplitudes and their covariance are
+full rate (:func:`linear_fit`).
 """
 
 from __future__ import annotations
@@ -12,11 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
-from twin.calibration.lag import ThermalLog, lagged_c
-from twin.calibration.models import poly_columns
+from twin.calibration.lagprofile import FullStats, Profile
 
 Z95 = 1.959963984540054
-LAG_CACHE = 64  # full-length lagged temperatures kept: the grid's and the current refinement's
 
 
 @dataclass(frozen=True)
@@ -43,109 +44,6 @@ class LagCandidate:
     rms_mg: tuple
     n_params: int
     bic: float
-
-
-class Profile:
-    """Training SSE per axis as a function of (τ_die, τ_rate), linear parameters projected out.
-
-    Parameters
-    ----------
-    log : ThermalLog
-        The whole temperature log (the lags run over it).
-    y : (n, 3) ndarray
-        Readings [g].
-    keep : (n,) ndarray of bool
-        Training rows.
-    degree : int
-        Polynomial degree in the die temperature.
-    reference_c : float
-        Expansion point [°C].
-    """
-
-    def __init__(self, log: ThermalLog, y: np.ndarray, keep: np.ndarray, degree: int, reference_c: float):
-        self.log, self.y, self.keep = log, y[keep], keep
-        self.degree, self.reference_c = degree, reference_c
-        self._lags: dict[float, np.ndarray] = {}
-
-    def lag(self, tau_s: float) -> np.ndarray:
-        """Lagged temperature ``lag(T, τ)`` [°C] of the whole log, cached (least recently used dropped).
-
-        Parameters
-        ----------
-        tau_s : float
-            Time constant [s].
-
-        Returns
-        -------
-        (n,) ndarray
-            Lagged temperature [°C].
-        """
-        key = round(float(tau_s), 9)
-        if key in self._lags:
-            self._lags[key] = self._lags.pop(key)  # most recent last
-        else:
-            if len(self._lags) >= LAG_CACHE:  # refinements revisit recent values: drop the oldest
-                self._lags.pop(next(iter(self._lags)))
-            self._lags[key] = lagged_c(self.log, key)
-        return self._lags[key]
-
-    def design(self, tau_die_s: float, tau_rate_s: float | None, rows=slice(None)) -> np.ndarray:
-        """(n, degree + 1 [+ 1]) columns: (T_die − ref)/10 °C powers [+ (T − lag(T, τ_rate)) °C].
-
-        Parameters
-        ----------
-        tau_die_s : float
-            Die lag [s].
-        tau_rate_s : float or None
-            Rate-term lag [s]; None or NaN: no rate column.
-        rows : slice or ndarray, optional
-            Rows returned.
-
-        Returns
-        -------
-        ndarray
-            The design matrix.
-        """
-        cols = poly_columns(self.lag(tau_die_s)[rows] - self.reference_c, self.degree)
-        if tau_rate_s is None or not np.isfinite(tau_rate_s):
-            return cols
-        rate = self.log.temperature_c[rows] - self.lag(tau_rate_s)[rows]
-        return np.column_stack([cols, rate])
-
-    def sse(self, tau_die_s: float, tau_rate_s: float | None) -> np.ndarray:
-        """Training residual sum of squares per axis [g²], floored above zero.
-
-        Parameters
-        ----------
-        tau_die_s, tau_rate_s : float, float or None
-            Die and rate-term lags [s].
-
-        Returns
-        -------
-        (3,) ndarray
-            SSE per axis [g²].
-        """
-        F = self.design(tau_die_s, tau_rate_s, self.keep)
-        coef, *_ = np.linalg.lstsq(F, self.y, rcond=None)
-        # floored: an exact fit (a noise-free log) must not send log(SSE) to -inf in the scores
-        return np.maximum(((self.y - F @ coef) ** 2).sum(axis=0), np.finfo(float).tiny * self.y.shape[0])
-
-    def residual(self, tau_die_s: float, tau_rate_s: float | None) -> np.ndarray:
-        """Training residual per axis [g] at the given lags.
-
-        Parameters
-        ----------
-        tau_die_s, tau_rate_s : float, float or None
-            Die and rate-term lags [s].
-
-        Returns
-        -------
-        (n_train, 3) ndarray
-            Residual [g].
-        """
-        F = self.design(tau_die_s, tau_rate_s, self.keep)
-        coef, *_ = np.linalg.lstsq(F, self.y, rcond=None)
-        return self.y - F @ coef
 
 
 def refine(objective, start: np.ndarray, bounds: list[tuple[float, float]]) -> np.ndarray:
@@ -195,6 +93,26 @@ def ar1_effective_n(residual: np.ndarray) -> np.ndarray:
     return r.shape[0] * (1 - rho) / (1 + rho)
 
 
+def effective_n(stats: FullStats) -> np.ndarray:
+    """:func:`ar1_effective_n` of a residual known by its sums (:meth:`Profile.full_stats`).
+
+    Parameters
+    ----------
+    stats : FullStats
+
+    Returns
+    -------
+    (3,) ndarray
+        Effective sample size per axis.
+    """
+    n = stats.n
+    m = stats.total / n  # about the residual's mean, as ar1_effective_n
+    power = np.maximum(stats.sse - n * m * m, np.finfo(float).tiny)
+    lag1 = stats.lag1 - m * (2 * stats.total - stats.first - stats.last) + (n - 1) * m * m
+    rho = np.clip(lag1 / power, 0.0, 0.95)
+    return n * (1 - rho) / (1 + rho)
+
+
 def search(profile: Profile, bounds_s: tuple[float, float], min_rate_tau_s: float, n_grid: int,
            share: str, rate_term) -> tuple[LagCandidate, tuple[LagCandidate, ...]]:
     """Grid + refinement of every allowed structure; returns (selected by BIC, all candidates).
@@ -224,9 +142,10 @@ def search(profile: Profile, bounds_s: tuple[float, float], min_rate_tau_s: floa
     rate_grid = np.geomspace(max(lo, min_rate_tau_s), hi, n_grid)
     with_rate = np.array([[profile.sse(d, g) for g in rate_grid] for d in die_grid])  # (d, g, 3)
     no_rate = np.array([profile.sse(d, None) for d in die_grid])  # (d, 3)
-    n, deg = profile.y.shape[0], profile.degree
+    n, deg = profile.n, profile.degree
     i, j = np.unravel_index(np.argmin(np.log(with_rate).sum(-1)), with_rate.shape[:2])
-    n_eff = ar1_effective_n(profile.residual(die_grid[i], rate_grid[j]))  # fixed across candidates
+    d, g = die_grid[i], rate_grid[j]
+    n_eff = effective_n(profile.full_stats(d, g, profile.search_coef(d, g)))  # fixed across candidates
     ln_n = float(np.log(n_eff.mean()))
     b_die, b_rate = (lo, hi), (max(lo, min_rate_tau_s), hi)
 
@@ -272,9 +191,15 @@ def search(profile: Profile, bounds_s: tuple[float, float], min_rate_tau_s: floa
     return min(out, key=lambda c: c.bic), tuple(out)
 
 
-def covariance(profile: Profile, tau_d: np.ndarray, tau_g: np.ndarray, coef: list[np.ndarray],
-               shared: bool) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
-    """Gauss–Newton covariance of all parameters (linear and τ's), AR(1)-inflated per axis.
+def linear_fit(profile: Profile, tau_d: np.ndarray, tau_g: np.ndarray, shared: bool):
+    """The linear coefficients per axis at the given τ's on every full-rate training row, and the
+    Gauss–Newton covariance of all parameters (linear and τ's), AR(1)-inflated per axis.
+
+    Per distinct (τ_die, τ_rate) (one for all three axes when shared) two passes over the full-rate
+    training rows, chunk by chunk — the coefficients, then the residual's power and lag-1
+    autocorrelation — and JᵀJ, axis by axis, on the search's rows
+    (:meth:`~twin.calibration.lagprofile.Profile.gauss_newton_blocks`): no full-length design or
+    Jacobian is formed.
 
     Parameters
     ----------
@@ -282,46 +207,40 @@ def covariance(profile: Profile, tau_d: np.ndarray, tau_g: np.ndarray, coef: lis
         The training profile.
     tau_d, tau_g : (3,) ndarray
         Die and rate-term lags per axis [s] (NaN: no rate term).
-    coef : list of ndarray
-        Linear coefficients per axis.
     shared : bool
         Whether the τ's are shared by the axes.
 
     Returns
     -------
-    (lin_cov, se_die, se_rate) : list of ndarray, (3,) ndarray, (3,) ndarray
-        Per-axis covariance of the linear coefficients, and standard errors [s] of
-        τ_die and τ_rate per axis (NaN where unused).
+    (coef, rms_mg, lin_cov, se_die, se_rate) : list of ndarray, (3,) ndarray, list of ndarray, (3,) ndarray, (3,) ndarray
+        Linear coefficients per axis, training RMS [mg], the covariance of each axis' linear
+        coefficients, and standard errors [s] of τ_die and τ_rate per axis (NaN where unused).
     """
-    keep, n = profile.keep, profile.y.shape[0]
-    blocks = []
+    n = profile.n
+    rated = np.isfinite(tau_g)
+    n_lin = [profile.degree + 1 + int(r) for r in rated]
+    n_dtau = [1 + int(r) for r in rated]
+    tau_idx, col = [], sum(n_lin)
+    for a in range(3):  # shared: every axis's ∂/∂τ columns are the same parameters
+        tau_idx.append(list(range(sum(n_lin), sum(n_lin) + n_dtau[a])) if shared else list(range(col, col + n_dtau[a])))
+        col += 0 if shared else n_dtau[a]
+    P = sum(n_lin) + (max(n_dtau) if shared else sum(n_dtau))
+    groups: dict = {}  # axes sharing (τ_die, τ_rate) share their design and its passes
     for a in range(3):
-        g = tau_g[a] if np.isfinite(tau_g[a]) else None
-        F = profile.design(tau_d[a], g, keep)
-        r = profile.y[:, a] - F @ coef[a]
-        dcols = [_d_dtau(profile, tau_d[a], g, coef[a], keep, "die")]
-        if g is not None:
-            dcols.append(_d_dtau(profile, tau_d[a], g, coef[a], keep, "rate"))
-        power = max(float(r @ r), np.finfo(float).tiny * n)  # an exact fit: zero-width intervals, not NaN
-        rho = float(np.clip((r[1:] @ r[:-1]) / power, 0.0, 0.95))
-        sigma = np.sqrt(power / max(n - F.shape[1] - len(dcols), 1) * (1 + rho) / (1 - rho))
-        blocks.append((F / sigma, np.column_stack(dcols) / sigma))
-    n_lin = [b[0].shape[1] for b in blocks]
-    n_tau = 2 if shared and np.isfinite(tau_g[0]) else (1 if shared else 0)
-    tau_idx, P = [], sum(n_lin) + (n_tau if shared else sum(b[1].shape[1] for b in blocks))
-    J = np.zeros((3 * n, P))
-    col = sum(n_lin)
-    for a, (F, D) in enumerate(blocks):
-        rows = slice(a * n, (a + 1) * n)
-        start = sum(n_lin[:a])
-        J[rows, start:start + n_lin[a]] = F
-        idx = list(range(sum(n_lin), sum(n_lin) + D.shape[1])) if shared else list(range(col, col + D.shape[1]))
-        col += 0 if shared else D.shape[1]
-        J[rows, idx] = D
-        tau_idx.append(idx)
-    norms = np.linalg.norm(J, axis=0)
-    norms[norms == 0] = 1.0
-    cov = np.linalg.pinv((J / norms).T @ (J / norms)) / np.outer(norms, norms)
+        groups.setdefault((float(tau_d[a]), float(tau_g[a]) if rated[a] else None), []).append(a)
+    coef, rms, parts = [None] * 3, np.zeros(3), []
+    for (d, g), axes in groups.items():
+        C = profile.full_coef(d, g)
+        stats, blocks = profile.full_stats(d, g, C), profile.gauss_newton_blocks(d, g, C)
+        for a in axes:
+            coef[a] = C[:, a]
+            rms[a] = np.sqrt(stats.sse[a] / n) * 1e3
+            power = max(float(stats.sse[a]), np.finfo(float).tiny * n)  # an exact fit: zero-width intervals, not NaN
+            rho = float(np.clip(stats.lag1[a] / power, 0.0, 0.95))
+            sigma = np.sqrt(power / max(n - n_lin[a] - n_dtau[a], 1) * (1 + rho) / (1 - rho))
+            start = sum(n_lin[:a])
+            parts.append((list(range(start, start + n_lin[a])) + tau_idx[a], blocks[a], sigma))
+    cov = _normalised_inverse(parts, P)
     lin_cov, se_d, se_g = [], np.full(3, np.nan), np.full(3, np.nan)
     for a in range(3):
         start = sum(n_lin[:a])
@@ -330,17 +249,31 @@ def covariance(profile: Profile, tau_d: np.ndarray, tau_g: np.ndarray, coef: lis
         se_d[a] = se[0]
         if se.size > 1:
             se_g[a] = se[1]
-    return lin_cov, se_d, se_g
+    return coef, rms, lin_cov, se_d, se_g
 
 
-def _d_dtau(profile: Profile, tau_d: float, tau_g: float | None, coef: np.ndarray, rows, which: str) -> np.ndarray:
-    """∂prediction/∂τ [g/s] by central differences of the lag (forward at τ = 0)."""
-    tau = tau_d if which == "die" else tau_g
-    h = max(1e-3 * tau, 0.05)
-    lo = max(tau - h, 0.0)
-    hi = tau + h
-    if which == "die":
-        up, down = profile.design(hi, tau_g, rows) @ coef, profile.design(lo, tau_g, rows) @ coef
-    else:
-        up, down = profile.design(tau_d, hi, rows) @ coef, profile.design(tau_d, lo, rows) @ coef
-    return (up - down) / (hi - lo)
+def _normalised_inverse(parts, P: int) -> np.ndarray:
+    """pinv(JᵀJ) for J stacked from blocks (columns ``cols``, ``AᵀA``, σ) as J = [A/σ …], computed
+    as pinv((J/‖J‖)ᵀ(J/‖J‖)) / ‖J‖‖J‖ᵀ with every factor kept near 1: 1/σ² of an exact fit (σ at
+    the floor, 10⁻¹⁵⁴) would overflow where 1/σ does not, and the interval of such a fit is zero."""
+    contrib = []
+    for cols, K, sigma in parts:
+        d = np.sqrt(np.diag(K))
+        contrib.append(d / sigma)  # ‖A column‖/σ: finite down to σ's floor
+    norms = np.zeros(P)
+    for (cols, _, _), c in zip(parts, contrib):
+        norms[cols] = np.maximum(norms[cols], c)
+    scale = np.where(norms > 0, norms, 1.0)
+    squares = np.zeros(P)
+    for (cols, _, _), c in zip(parts, contrib):
+        squares[cols] += (c / scale[cols]) ** 2
+    norms = scale * np.sqrt(squares)  # ‖J column‖, without squaring a large number
+    norms[norms == 0] = 1.0
+    G = np.zeros((P, P))
+    for (cols, K, _), c in zip(parts, contrib):
+        d = np.sqrt(np.diag(K))
+        d[d == 0] = 1.0
+        u = c / norms[cols]
+        G[np.ix_(cols, cols)] += K / np.outer(d, d) * np.outer(u, u)
+    with np.errstate(over="ignore"):  # ‖J‖‖J‖ᵀ of an exact fit is inf: its covariance is 0
+        return np.linalg.pinv(G) / np.outer(norms, norms)

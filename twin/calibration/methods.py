@@ -33,6 +33,7 @@ from twin.firmware import (
 
 # the firmwares work in SI units: the accelerometer methods take g and hand the fit m/s²
 UNIT = {"accel": (G0_M_S2, "m/s²"), "gyro": (1.0, "rad/s")}
+LEVEL_CHUNK = 1 << 16  # rows per step of the training level's pass
 
 
 class _FirmwareMethod(CompensatorBase):
@@ -51,6 +52,7 @@ class _FirmwareMethod(CompensatorBase):
     """
 
     sensor = "accel"
+    row_by_row = True
 
     def _fit_cal(self, time_s, temperature_c, samples_si):  # pragma: no cover - subclasses
         raise NotImplementedError
@@ -59,8 +61,16 @@ class _FirmwareMethod(CompensatorBase):
         """Fit on the rows of ``mask`` (a contiguous branch, as the tools expect). Returns self."""
         log, y, keep = fit_inputs(self, X, y, mask)
         scale = UNIT[self.sensor][0]
-        self.cal_ = self._fit_cal(log.time_s[keep], log.temperature_c[keep], y[keep] * scale)
-        self.level_g_ = np.mean(y[keep] - self.cal_.offset(log.temperature_c[keep]) / scale, axis=0)
+        rows = slice(None) if keep.all() else keep  # every row: the arrays themselves, no copies
+        samples = y[rows] * scale
+        temperature_c = log.temperature_c[rows]
+        self.cal_ = self._fit_cal(log.time_s[rows], temperature_c, samples)
+        del samples
+        readings, total = y[rows], np.zeros(y.shape[1])
+        for a in range(0, temperature_c.size, LEVEL_CHUNK):  # the offsets a chunk at a time, in cache
+            b = a + LEVEL_CHUNK
+            total += (readings[a:b] - self.cal_.offset(temperature_c[a:b]) / scale).sum(axis=0)
+        self.level_g_ = total / temperature_c.size
         return self
 
     def offset(self, X) -> np.ndarray:
@@ -171,6 +181,11 @@ class AsTheVehicleApplies(CompensatorBase):
         The inner method's training level, in the unit of ``y``.
     """
 
+    @property
+    def row_by_row(self) -> bool:
+        """ArduPilot's correction is a function of each row's temperature; PX4's republish timer runs over the log."""
+        return not isinstance(self.method, Px4Method)
+
     def __init__(self, method):
         self.method = method
 
@@ -192,7 +207,32 @@ class AsTheVehicleApplies(CompensatorBase):
             ``self``, fitted.
         """
         fit_inputs(self, X, y, mask)  # records n_features_in_; the clone below checks the same input again
-        self.inner_ = clone(self.method).fit(X, y, mask)
+        return self._load(clone(self.method).fit(X, y, mask))
+
+    def fit_from(self, inner, X, y, mask=None):
+        """:meth:`fit` with the wrapped method already fitted on the same rows (a clone of
+        ``method`` fitted on ``X``, ``y``, ``mask``, as :func:`~twin.calibration.validate.validate`
+        fits it beside this one): the same result without fitting it twice. Returns self.
+
+        Parameters
+        ----------
+        inner : Px4Method, ArduPilotMethod or their gyro variants
+            Fitted on exactly these rows.
+        X, y, mask
+            As in :meth:`fit`.
+
+        Returns
+        -------
+        AsTheVehicleApplies
+            ``self``, fitted.
+        """
+        fit_inputs(self, X, y, mask)
+        if type(inner) is not type(self.method) or inner.get_params() != self.method.get_params():
+            raise TypeError(f"fit_from needs a fitted {type(self.method).__name__} with the parameters of method")
+        return self._load(inner)
+
+    def _load(self, inner):
+        self.inner_ = inner
         cal = self.inner_.cal_
         if isinstance(self.method, Px4Method):
             if not cal.device_id:

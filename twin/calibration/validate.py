@@ -14,7 +14,7 @@ import numpy as np
 from sklearn.base import clone
 
 from twin.calibration.branches import Protocol
-from twin.calibration.lag import make_X
+from twin.calibration.lag import MIN_ROWS, make_X
 from twin.calibration.models import AXES
 from twin.errors import TwinError
 from twin.estimation.noise import white_sigma_of_differences
@@ -155,7 +155,8 @@ def held_out_noise_floor_mg(residual_g: np.ndarray, index: np.ndarray) -> np.nda
     return np.array([white_sigma_of_differences(d[:, k]) for k in range(d.shape[1])]) * 1e3
 
 
-def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, run=None) -> ValidationResult:
+def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, run=None,
+             on_fit=None) -> ValidationResult:
     """Fit each estimator on each fold's training rows and score it on the held-out branches.
 
     Parameters
@@ -169,6 +170,8 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
         From :func:`twin.calibration.branches.protocol_heating_vs_cooling`.
     run : (n,) int array, optional
         Run id per sample (the lags restart at each run).
+    on_fit : callable, optional
+        Called with ``"<method> on <fold>"`` after each fit (and skipped fit), e.g. a progress bar's step.
 
     Returns
     -------
@@ -183,16 +186,28 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
         mask = np.zeros(X.shape[0], bool)
         mask[fold.train] = True
         held = np.concatenate([t.index for t in fold.tests]) if fold.tests else np.zeros(0, int)
+        held_rows = np.zeros(X.shape[0], bool)
+        held_rows[held] = True
+        held_rows = np.flatnonzero(held_rows)  # sorted, once: the rows a row-by-row model predicts
         extrap = np.concatenate([t.extrapolated for t in fold.tests]) if fold.tests else np.zeros(0, bool)
+        this_fold = {}  # original estimator (by identity) → its fit on this fold
         for name, est in models.items():
             start = time.perf_counter()
             try:
-                fitted = clone(est).fit(X, y, mask=mask)
+                inner = this_fold.get(id(getattr(est, "method", None)))
+                if inner is not None and hasattr(est, "fit_from"):  # a wrapper of a method fitted just before
+                    fitted = clone(est).fit_from(inner, X, y, mask=mask)
+                else:
+                    fitted = this_fold[id(est)] = clone(est).fit(X, y, mask=mask)
             except CalibrationRangeError as exc:  # e.g. ArduPilot's 10 °C on a fold's narrower training rows
                 skipped.append(f"note ({fold.name}): {name} not fitted on this fold: {exc}")
+                if on_fit:
+                    on_fit(f"{name} on {fold.name}")
                 continue
             times[(fold.name, name)] = time.perf_counter() - start
-            resid = y - fitted.predict(X)
+            if on_fit:
+                on_fit(f"{name} on {fold.name}")
+            resid = _residual(fitted, X, y, held_rows)
             for t in fold.tests:
                 scores.append(Score(fold.name, name, t.name, _rms(resid[t.index]), int(t.index.size),
                                     t.extrapolated_fraction))
@@ -212,6 +227,17 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
     best = tuple(dummy.methods[i] for i in np.argmin(pooled, axis=0))
     notes = tuple(f"note ({f.name}): {f.note}" for f in protocol.folds if f.note) + tuple(skipped)
     return ValidationResult(tuple(scores), tuple(float(v) for v in floor), best, times, notes)
+
+
+def _residual(fitted, X: np.ndarray, y: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``y − prediction`` on the held-out ``rows`` (sorted; the other rows' values undefined): a
+    model predicting each row from its own temperature predicts only those; one with a thermal
+    state runs over the whole log."""
+    if not getattr(fitted, "row_by_row", False) or rows.size >= X.shape[0] or rows.size < MIN_ROWS:
+        return y - fitted.predict(X)
+    resid = np.empty_like(y)  # pages of rows never written are never touched
+    resid[rows] = y[rows] - fitted.predict(X[rows])
+    return resid
 
 
 def _rms(r: np.ndarray) -> tuple[float, float, float]:

@@ -36,6 +36,7 @@ from twin.calibration.plausibility import (
     rate_bound_notes,
     tcso_flags,
 )
+from twin.calibration.progress import FitProgress
 from twin.calibration.recommend import Recommendation, recommend
 from twin.calibration.validate import ValidationResult, validate
 from twin.errors import TwinError
@@ -261,7 +262,7 @@ def methods_for(instance: int, device_id: int | None, extra: dict | None = None)
 
 def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse: bool = True,
                   device_id: int | None = None, limits: PlausibilityLimits | None = None,
-                  settings: QualitySettings | None = None) -> ImuCalibration:
+                  settings: QualitySettings | None = None, progress: FitProgress | None = None) -> ImuCalibration:
     """Validate and fit every method on one IMU's logs (several logs = several runs), on their
     usable static rows only (the log-quality stage, :func:`twin.measurement.quality.assess_log`).
 
@@ -274,6 +275,8 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
         What a plausible fit may hold (default: :func:`limits_for_part`).
     settings : QualitySettings, optional
         What counts as still, a gap, a fault (default: :class:`QualitySettings`).
+    progress : FitProgress, optional
+        Told of every stage and fit (default: none drawn).
 
     Returns
     -------
@@ -296,23 +299,29 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
     if given is not None and logged and given not in logged:
         raise CalibrationInputError(f"{where}: the log records device_id {logged.pop()}, but --device-id is {given}")
     device = given if given is not None else check_device_id(next(iter(logged), None), where)
+    progress = progress or FitProgress("", enabled=False)
     qualities = tuple(one_attitude_per_face(assess_log(log, settings)) for log in logs)
     keep = still_rows(qualities)
-    time_s = np.concatenate([log.time_s for log in logs])
-    temperature_c = np.concatenate([log.temperature_c for log in logs])
-    accel_g = np.concatenate([log.accel_g for log in logs])
-    run = np.concatenate([np.full(len(log), k) for k, log in enumerate(logs)])
-    orientations, gravity_g = None, np.zeros_like(accel_g)
+    progress.step("log quality")
+    joined = (lambda name: getattr(logs[0], name) if len(logs) == 1  # one log: its arrays, not copies
+              else np.concatenate([getattr(log, name) for log in logs]))
+    time_s, temperature_c, accel_g = joined("time_s"), joined("temperature_c"), joined("accel_g")
+    orientations, gravity_g = None, None
     if len(logs) == 1:  # several orientations in one log: calibrate offset(T) AND scale factor(T)
         found = orientation_calibration(time_s, temperature_c, accel_g, qualities[0])
         if found is not None:
             orientations, keep, gravity_g = found
-    rows = np.flatnonzero(keep)  # the rows fitted on: still, and (several orientations) on a known face
-    time_s, temperature_c, accel_g, run = time_s[rows], temperature_c[rows], accel_g[rows] - gravity_g[rows], run[rows]
-    run_or_none = run if len(logs) > 1 else None
+    rows = slice(None) if keep.all() else np.flatnonzero(keep)  # still, and (several orientations) on a known face
+    time_s, temperature_c, accel_g = time_s[rows], temperature_c[rows], accel_g[rows]
+    if gravity_g is not None:
+        accel_g = accel_g - gravity_g[rows]
+    run_or_none = np.repeat(np.arange(len(logs)), [len(log) for log in logs])[rows] if len(logs) > 1 else None
     models = methods_for(first.instance, device, extra_methods)
     protocol = protocol_as_used(time_s, temperature_c, run=run_or_none, reverse=reverse)
-    validation = validate({**models, **as_applied(models)}, time_s, temperature_c, accel_g, protocol, run=run_or_none)
+    validated = {**models, **as_applied(models)}
+    progress.expect(2 + len(protocol.folds) * len(validated) + len(models))
+    progress.step("protocol")
+    validation = validate(validated, time_s, temperature_c, accel_g, protocol, run=run_or_none, on_fit=progress.step)
     X = make_X(time_s, temperature_c, run_or_none)
     fitted, unfit = {}, {}
     for name, est in models.items():
@@ -320,6 +329,7 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
             fitted[name] = clone(est).fit(X, accel_g)
         except CalibrationRangeError as exc:  # ArduPilot's 10 °C after its filter: the others still stand
             unfit[name] = str(exc)
+        progress.step(f"{name} on all rows")
     gyro, gyro_rad_s, gyro_note = None, None, ()
     if any(log.has_gyro for log in logs):
         gyro_rad_s = np.concatenate([log.gyro_rad_s for log in logs])[rows] if all(log.has_gyro for log in logs) else None
@@ -393,7 +403,8 @@ def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[li
         if instance in compared:
             extra[COMPARED] = ComposedCompensator(compared[instance])
         try:
-            done.append(calibrate_imu(logs, **{**options, "extra_methods": extra}))
+            with FitProgress(f"IMU {instance}") as progress:  # drawn on a terminal only
+                done.append(calibrate_imu(logs, **{**options, "extra_methods": extra, "progress": progress}))
         except TwinError as exc:  # any refusal of this IMU's logs; the others are still calibrated
             if len(per_instance) == 1:
                 raise

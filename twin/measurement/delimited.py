@@ -13,7 +13,8 @@ peak memory, measured under load); anything it cannot parse goes to the careful 
 the file, line and column as before. Both give the same arrays (tests/test_properties_logs.py).
 Single-axis files from 256 MB on are read by the same parser in chunks into the final arrays
 (:mod:`twin.measurement.chunked`: a week at 100 Hz peaks at 3.4 GB, not 7.9 GB); any irregularity
-there falls back to these paths. Not chosen: ``usecols`` (half the peak memory, but it silently
+there falls back to these paths. Large 3-axis tables are parsed in chunks too, their needed columns
+gathered into arrays grown in place (the whole frame, every column float64, is never held). Not chosen: ``usecols`` (half the peak memory, but it silently
 drops a ragged row's extra fields), Arrow's CSV reader (its own float parser).
 """
 
@@ -183,6 +184,8 @@ def _fast_values(path: Path, cmap: ColumnMap, layout: _Layout, roles, skip_bad_r
 
     if layout.sep == r"\s+":
         return None
+    if chunked.is_large(path):  # the same parser and options, CHUNK_ROWS rows at a time
+        return _chunked_values(path, cmap, layout, roles, skip_bad_rows)
     # not usecols: with it the parser silently drops a ragged row's extra fields (module docstring)
     try:
         df = _read_csv(path, cmap, layout, skip_bad_rows, dtype=np.float64)
@@ -196,6 +199,41 @@ def _fast_values(path: Path, cmap: ColumnMap, layout: _Layout, roles, skip_bad_r
     if any(wanted[role] is None for role, key, required in roles if key is not None and required):
         return None
     return {role: df.iloc[:, idx].to_numpy(np.float64) for role, idx in wanted.items() if idx is not None}
+
+
+def _chunked_values(path: Path, cmap: ColumnMap, layout: _Layout, roles, skip_bad_rows: bool) -> dict | None:
+    """:func:`_fast_values` of a large file, its needed columns gathered chunk by chunk into arrays
+    grown in place: the parser's frame never holds more than one chunk (bit for bit the same values:
+    the same parser, options and dtype)."""
+    import pandas as pd
+
+    out, wanted, n = {}, None, 0
+    try:
+        with _read_csv(path, cmap, layout, skip_bad_rows, dtype=np.float64, chunksize=chunked.CHUNK_ROWS) as frames:
+            for frame in frames:
+                if wanted is None:
+                    columns = [str(c).strip() for c in frame.columns]
+                    wanted = {role: _position(columns, key) for role, key, _ in roles if key is not None}
+                    if any(wanted[role] is None for role, key, required in roles if key is not None and required):
+                        return None
+                    wanted = {role: idx for role, idx in wanted.items() if idx is not None}
+                    out = {role: np.empty(chunked.estimated_rows(path, layout.first_line)) for role in wanted}
+                size = next(iter(out.values())).size if out else 0
+                if n + len(frame) > size:
+                    for a in out.values():
+                        a.resize(max(n + len(frame), size + size // 2), refcheck=False)
+                for role, idx in wanted.items():
+                    out[role][n:n + len(frame)] = frame.iloc[:, idx].to_numpy(np.float64)
+                n += len(frame)
+                del frame
+    except (ValueError, TypeError, OverflowError, UnicodeDecodeError, OSError, pd.errors.ParserError,
+            pd.errors.EmptyDataError):
+        return None
+    if not n:
+        return None
+    for a in out.values():
+        a.resize(n, refcheck=False)
+    return out
 
 
 def _numeric_columns(path: Path, cmap: ColumnMap, roles, skip_bad_rows: bool):
