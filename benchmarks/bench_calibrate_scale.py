@@ -70,6 +70,13 @@ TESTER_COLUMNS = ["--time-col", "time_s", "--temperature-col", "temp_c", "--x-co
 ULOG_HOURS, ULOG_RATE_HZ, ULOG_IMUS = 2.0, 10.0, 4
 
 
+
+def _describe(baseline: Path) -> str:
+    """The baseline by its git commit when it is a checkout (a path of this machine means nothing
+    in the published figures)."""
+    r = subprocess.run(["git", "-C", str(baseline), "log", "-1", "--format=%h %s"], capture_output=True, text=True)
+    return f"commit {r.stdout.strip()[:80]}" if r.returncode == 0 and r.stdout.strip() else "an earlier version's copy"
+
 def _lag(u: np.ndarray, dt_s: float, tau_s: float, zi: np.ndarray | None = None):
     """First-order lag (exact for a held input) from equilibrium, or carrying the state ``zi``."""
     a = np.exp(-dt_s / tau_s)
@@ -215,7 +222,7 @@ def measure(log: Path, rows: int, tmp: Path, runs: int, baseline: Path | None = 
         "px4_method": {**base, "us_per_row": base["wall_s"] / rows * 1e6, "all_wall_s": [r["wall_s"] for r in px4]},
         "ratio_wall_to_px4": twin["wall_s"] / base["wall_s"], "ratio_cpu_to_px4": twin["cpu_s"] / base["cpu_s"],
         **({"before": {**before, "us_per_row": before["wall_s"] / rows * 1e6,
-                       "ratio_wall_to_px4": before["wall_s"] / base["wall_s"], "source": str(baseline)}}
+                       "ratio_wall_to_px4": before["wall_s"] / base["wall_s"], "source": _describe(baseline)}}
            if before else {}),
         "imus": [{"instance": imu["instance"], "samples": imu["samples"],
                   "twin_tau_die_s": imu["methods"]["twin"]["tau_die_s"],
