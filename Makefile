@@ -48,11 +48,12 @@ run: $(STAMP)
 	$(TWIN) benchmark scenarios/paper_iis328dq.yaml --quick --seeds 1 --json out/benchmark_quick.json
 
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -m "not long"
 
-# the property-based tests' long profile (20,000 examples each; hours): make test runs a fixed budget
+# the property-based tests' long profile (20,000 examples each; hours) and the checks marked long: make test runs a fixed budget
 test-long: $(STAMP)
 	HYPOTHESIS_PROFILE=long $(PY) -m pytest -q tests/test_properties_model.py tests/test_properties_logs.py
+	$(PY) -m pytest -q -m long
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e '.[test,bench]'
