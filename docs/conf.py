@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(DOCS))
 
 import twin  # noqa: E402
-from performance_page import write_performance_page  # noqa: E402
+from performance_page import write_performance_page, write_plan_results  # noqa: E402
 
 project = "tde-twin"
 author = "tde-twin developers"
@@ -40,7 +40,7 @@ extensions = [
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 exclude_patterns = ["_build", "notebooks", "tutorials/README.txt", "gallery/README.txt",
-                    "**.ipynb_checkpoints"]
+                    "**.ipynb_checkpoints", "plan_results.md"]
 templates_path = ["_templates"]
 
 # ---------------------------------------------------------------- Markdown (MyST)
@@ -107,5 +107,6 @@ def _skip_generated_members(app, what, name, obj, skip, options):
 def setup(app):
     """Render the performance page from the benchmarks' JSON before the sources are read."""
     write_performance_page(ROOT / "benchmarks" / "results", DOCS / "performance.md")
+    write_plan_results(ROOT / "benchmarks" / "results" / "bench_plan.json", DOCS / "plan_results.md")
     app.connect("autodoc-process-docstring", _plain_text_bars)
     app.connect("autodoc-skip-member", _skip_generated_members)

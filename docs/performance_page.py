@@ -107,3 +107,36 @@ def write_performance_page(results_dir: Path, out: Path) -> None:
     text = render(results_dir)
     if not out.exists() or out.read_text() != text:
         out.write_text(text)
+
+
+def plan_results(path: Path) -> str:
+    """The table of ``twin plan`` on the simulated alias pairs (``docs/plan.md`` §6) from
+    ``bench_plan.json``: per pair, the starting finding, the plan, and each truth's rate on the plan
+    and on the repeated protocol, with 95 % intervals and the predicted rates."""
+    if not path.exists():
+        return "No `benchmarks/results/bench_plan.json` yet: run `python benchmarks/bench_plan.py`.\n"
+    data = json.loads(path.read_text())
+    m = data.get("machine", {})
+    rate = lambda c: (f"{c['named_first']}/{c['seeds']} ({100 * c['rate']:.0f} %, CI {100 * c['ci95'][0]:.0f}–"  # noqa: E731
+                      f"{100 * c['ci95'][1]:.0f} %)" if c else "—")
+    pred = lambda c: "—" if not c or c.get("predicted") is None else f"{100 * c['predicted']:.0f} %"  # noqa: E731
+    lines = [f"From `benchmarks/results/bench_plan.json` ({m.get('cpu_model', '?')}, {m.get('logical_cpus', '?')} "
+             f"CPUs), budget {data['budget_h']:g} chamber hours, {data['seeds']} seeds per truth.", "",
+             "| pair | starting log (truth A) | plan | truth | named first, plan | predicted | named first, "
+             "protocol repeated |", "|---|---|---|---|---|---|---|"]
+    for name, p in data["pairs"].items():
+        s = p["starting_log"]
+        start = f"{s['confidence']}, named {', '.join(s['named']) or 'nothing'}"
+        plan = f"{p['plan']['description']} ({p['plan']['chamber_hours']:.3g} h)"
+        for k, truth in enumerate(p["truths"]):
+            pc, bc = p["plan_check"].get(truth), p["protocol_repeated_check"].get(truth)
+            lines.append(f"| {name if k == 0 else ''} | {start if k == 0 else ''} | {plan if k == 0 else ''} | "
+                         f"{truth} | {rate(pc)} | {pred(pc)} | {rate(bc)} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_plan_results(path: Path, out: Path) -> None:
+    """Write :func:`plan_results` only when it changed."""
+    text = plan_results(path)
+    if not out.exists() or out.read_text() != text:
+        out.write_text(text)

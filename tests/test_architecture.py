@@ -23,7 +23,7 @@ LAYERS = [
     {"twin.finding"},  # the typed compare result and its wording
     {"twin.reporting"},
     {"twin.compensation", "twin.calibration"},
-    {"twin.studies", "twin.fleet"},
+    {"twin.studies", "twin.fleet", "twin.plan"},  # studies, fleets and test plans run the diagnosis many times
     {"twin.workflows"},
     {"twin.cli"},
 ]

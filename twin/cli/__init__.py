@@ -16,7 +16,7 @@ from typing import Annotated
 import typer
 from typer.exceptions import TyperException
 
-from twin.cli import diagnosis, field, fleet, model, package, studies  # noqa: F401  (each registers its commands)
+from twin.cli import diagnosis, field, fleet, model, package, plan, studies  # noqa: F401  (each registers its commands)
 from twin.cli.common import app
 
 

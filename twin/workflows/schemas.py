@@ -14,6 +14,7 @@ from twin.fleet.result import FleetResult, SimulatedFleet
 from twin.results import json_schema
 from twin.model.results import PackagePrediction, RunSummary
 from twin.parts.records import PartsListing
+from twin.plan.result import PlanResult
 from twin.reporting.results import CombReport, DesignReport, ExportResult, PaperReport, RenderResult
 from twin.studies.result import DoeResult
 
@@ -29,7 +30,7 @@ def result_types() -> dict[str, object]:
             "doe": DoeResult, "calibration": CalibrationDocument, "run": RunSummary, "test-design": DesignReport,
             "comb": CombReport, "render": RenderResult, "export": ExportResult, "package": PackagePrediction,
             "paper": PaperReport, "effects": EffectsListing, "parts": PartsListing,
-            "firmware": FirmwareResult, "apply": ApplyResult, "benchmark": BenchmarkResult}
+            "firmware": FirmwareResult, "apply": ApplyResult, "benchmark": BenchmarkResult, "plan": PlanResult}
 
 
 def result_schema(name: str) -> dict:

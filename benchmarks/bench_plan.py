@@ -1,0 +1,143 @@
+"""``twin plan`` on the aliases the audit knows (issue 29): from a log on which the diagnosis cannot
+tell two effects apart, the planned test against a second run of the original protocol of the same
+budget, each simulated with either effect as the truth and diagnosed blind.
+
+Pairs (the twin's model, truth A, truth B):
+
+* scale factor vs bias tempco — twin: static_bias_tc; A: scale_factor_tc (40–150 ppm/°C), B: none
+  (the twin's bias tempco is the whole story). One orientation cannot tell them apart.
+* lag vs gradient — twin: static_bias_tc (curved) + scale_factor_tc; A: a die lag behind the board
+  thermometer (τ 120–400 s), B: thermal_gradient.
+* creep vs hysteresis — A: stress_relaxation (τ 1–3 h), B: thermal_hysteresis (play of 1.5–5 °C).
+* aging vs warm-up — A: aging_drift (0.05–0.15 mg/h), B: warmup (0.5–1.5 mg, τ 60–250 s).
+
+Original protocol (``ORIGINAL``): 25 → 85 → −40 → 25 °C at 60 °C/h with 30-min dwells, one run at
++1 g, one power-on, 1 Hz (6.7 h). Steps, per pair, as a user runs them:
+
+1. simulate the original protocol with truth A (seed 0) and ``twin compare --json`` it (the
+   starting finding; its confidence and rivals are recorded);
+2. ``twin plan FINDING SCENARIO --rivals A,B --budget-h 12 --check-seeds N --check-baseline``: the
+   plan, its predicted separation, and the check — the plan and the original protocol repeated to
+   the budget, each simulated with A and with B as the truth on N seeds and diagnosed blind.
+
+Acceptance (issue 29): the plan names the truth first in ≥ 95 % of 50 seeds per truth, the
+repeated protocol less. Usage: python benchmarks/bench_plan.py [--seeds 50] [--workers 2]
+[--pairs lag_vs_gradient,...] [--budget-h 12] [--json benchmarks/results/bench_plan.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _common import machine, write_json  # noqa: E402
+
+ORIGINAL = {
+    "start_c": 25.0, "cycles": 1,
+    "steps": [{"type": "hold", "dwell_s": 1800}, {"type": "ramp", "target_c": 85.0, "ramp_c_per_h": 60},
+              {"type": "hold", "dwell_s": 1800}, {"type": "ramp", "target_c": -40.0, "ramp_c_per_h": 60},
+              {"type": "hold", "dwell_s": 1800}, {"type": "ramp", "target_c": 25.0, "ramp_c_per_h": 60},
+              {"type": "hold", "dwell_s": 1800}],
+}
+BIAS = {"tc1_mg_per_c": 0.5, "tc2_mg_per_c2": 1.5e-3}
+#: pair → (twin effects, truth A as (effect, device values, chamber die τ), truth B)
+PAIRS = {
+    "scale_factor_vs_bias_tc": (["static_bias_tc"], ("scale_factor_tc", {"tc1_ppm_per_c": 80.0}), ("none", {})),
+    "lag_vs_gradient": (["static_bias_tc", "scale_factor_tc"], ("thermal_lag", {"tau_s": 200.0}),
+                        ("thermal_gradient", {"coef_mg_per_c_per_min": 0.6, "tau_s": 200.0})),
+    "creep_vs_hysteresis": (["static_bias_tc", "scale_factor_tc"],
+                            ("stress_relaxation", {"k1_mg_per_c": 0.03, "tau_s": 6000.0}),
+                            ("thermal_hysteresis", {"k_mg_per_c": 0.08, "half_width_c": 3.0})),
+    "aging_vs_warmup": (["static_bias_tc", "scale_factor_tc"], ("aging_drift", {"rate_mg_per_h": 0.1}),
+                        ("warmup", {"amplitude_mg": 1.0, "tau_s": 120.0})),
+}
+
+
+def scenario(twin: list[str], truth: tuple[str, dict]) -> dict:
+    """The original protocol with ``truth`` in the device (a die lag through the thermal chain)."""
+    effect, values = truth
+    device = {"static_bias_tc": dict(BIAS), "scale_factor_tc": {"tc1_ppm_per_c": 60.0}}
+    device = {k: v for k, v in device.items() if k in twin}
+    lumped = {"board_tau_s": 300.0, "die_tau_s": 1.0}
+    if effect == "thermal_lag":
+        lumped["die_tau_s"] = values["tau_s"]
+    elif effect != "none":
+        device[effect] = dict(values)
+    return {"name": "original", "seed": 0, "program": ORIGINAL,
+            "chamber": {"model": "lumped", "lumped": lumped,
+                        "thermometer": {"attached_to": "board", "tau_s": 2.0, "noise_c": 0.01, "resolution_c": 0.01}},
+            "device": {"sensor": {"turn_on_bias_mg": 0.5}, "effects": device},
+            "test_plan": {"logger_rate_hz": 1.0}, "twin": {"effects": twin}}
+
+
+def twin_cmd(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", "from twin.cli import main; main()", *args],
+                          capture_output=True, text=True, cwd=ROOT)
+
+
+def run_pair(name: str, seeds: int, workers: int, budget_h: float, tmp: Path) -> dict:
+    twin, a, b = PAIRS[name]
+    scn = tmp / f"{name}.yaml"
+    scn.write_text(yaml.safe_dump(scenario(twin, a), sort_keys=False))
+    h5, finding, plan_yaml, plan_json = (tmp / f"{name}.{ext}" for ext in ("h5", "finding.json", "plan.yaml", "plan.json"))
+    for args in (("run", str(scn), "-o", str(h5)), ("compare", str(scn), str(h5), "--json", str(finding))):
+        p = twin_cmd(*args)
+        if p.returncode:
+            raise SystemExit(f"twin {args[0]} failed: {p.stderr.strip()}")
+    f = json.loads(finding.read_text())
+    start = {"named": f["selected"], "confidence": f["confidence"], "rivals": f["rivals"],
+             "untestable": [u["effect"] for u in f["untestable"]],
+             "withheld": [w["effect"] + "/" + w["outranked_by"] for w in f["withheld"]],
+             "candidates_significant": [c["effect"] for c in f["candidates"] if c["significant"]]}
+    out: dict = {"twin": twin, "truths": [a[0], b[0]], "starting_log": {"truth": a[0], "values": a[1], **start}}
+    t0 = time.perf_counter()
+    p = twin_cmd("plan", str(finding), str(scn), "--rivals", f"{a[0]},{b[0]}", "--budget-h", str(budget_h),
+                 "--check-seeds", str(seeds), "--check-baseline", "--workers", str(workers), "-o", str(plan_yaml),
+                 "--json", str(plan_json))
+    if p.returncode:
+        raise SystemExit(f"twin plan failed: {p.stderr.strip()}")
+    r = json.loads(plan_json.read_text())
+    rate = lambda checks: {c["truth"]: {k: c[k] for k in ("named_first", "seeds", "rate", "ci95", "predicted", "named")}  # noqa: E731
+                           for c in checks or []}
+    out.update(plan=r["plan"], program=r["program"], baselines=r["baselines"], why=r["why"],
+               wall_s_plan_and_check=time.perf_counter() - t0, plan_check=rate(r.get("check")),
+               protocol_repeated_check=rate(r.get("baseline_check")))
+    out["meets_95_percent"] = all(c["rate"] >= 0.95 for c in out["plan_check"].values()) and len(out["plan_check"]) == 2
+    plan_hits = sum(c["named_first"] for c in out["plan_check"].values())
+    out["plan_beats_protocol"] = plan_hits > sum(c["named_first"] for c in out["protocol_repeated_check"].values())
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seeds", type=int, default=50, help="simulated tests per truth, for the plan and for the repeated protocol")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--budget-h", type=float, default=12.0)
+    ap.add_argument("--pairs", default=",".join(PAIRS))
+    ap.add_argument("--json", default="benchmarks/results/bench_plan.json")
+    args = ap.parse_args()
+    result: dict = {"machine": machine(), "budget_h": args.budget_h, "seeds": args.seeds,
+"original_protocol": ORIGINAL, "pairs": {}}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in args.pairs.split(","):
+            result["pairs"][name] = run_pair(name, args.seeds, args.workers, args.budget_h, Path(tmp))
+            p = result["pairs"][name]
+            print(name, "start:", p["starting_log"]["confidence"], p["starting_log"]["named"],
+                  "| plan:", p["plan"]["description"], {t: c["rate"] for t, c in p["plan_check"].items()},
+                  "| protocol:", {t: c["rate"] for t, c in p["protocol_repeated_check"].items()}, flush=True)
+            write_json(args.json, result)  # after every pair: a long run keeps what it has
+
+
+if __name__ == "__main__":
+    main()

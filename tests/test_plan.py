@@ -1,0 +1,174 @@
+"""``twin plan`` (issue 29): the candidate tests, the rivals read from a finding, the expected
+separation as physics (signatures that are the same cannot be separated by any test, one that is
+odd in g needs a second orientation), and the command as a user runs it."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from conftest import ROOT, run_cli
+from twin.errors import TwinError
+from twin.model.scenario import load_scenario
+from twin.model.simulate import time_base
+from twin.plan.check import wilson_interval
+from twin.plan.hypotheses import NONE, Hypothesis, hypotheses_from_finding
+from twin.plan.programs import ChamberLimits, PlannedTest, candidate_programs
+from twin.plan.scenarios import base_scenario, load, with_hypothesis, with_program
+from twin.plan.separation import separation
+
+LAG_SCENARIO = ROOT / "scenarios" / "hidden_thermal_lag.yaml"
+
+
+def test_candidates_stay_within_budget_and_chamber_limits():
+    limits = ChamberLimits(min_c=-20, max_c=70, max_ramp_c_per_h=120, min_ramp_c_per_h=30,
+                           orientations=["fixed", "flip"], max_power_ons=2)
+    programs = candidate_programs(limits, budget_h=10.0)
+    assert programs
+    for p in programs:
+        assert p.hours() <= 10.0 + 1e-9
+        assert all(30 <= r <= 120 for r in p.ramp_c_per_h)
+        assert p.orientation in ("fixed", "flip") and 1 <= p.power_ons <= 2
+        temps = [s["target_c"] for s in p.steps() if "target_c" in s]
+        assert min(temps) >= -20 and max(temps) <= 70
+    # at its design, each candidate runs as many cycles as fit: one more would break the budget
+    p = programs[0]
+    more = PlannedTest(p.low_c, p.high_c, p.start_c, p.ramp_c_per_h, p.dwell_s, p.cycles + 1, p.orientation,
+                       p.power_ons)
+    assert more.hours() > 10.0
+
+
+def test_program_hours_match_the_simulated_time_base():
+    """The duration the planner budgets is the duration the simulator runs."""
+    p = PlannedTest(-40, 85, 25, (30, 120), 1800, 2, "flip", 3)
+    base = base_scenario(load_scenario(LAG_SCENARIO), None)
+    loaded = load(with_program(base, p.program(), p.test_plan()))
+    t = time_base(loaded)
+    assert t[-1] + 1.0 / loaded.scenario.test_plan.logger_rate_hz == pytest.approx(p.run_hours() * 3600, abs=1.0)
+    assert loaded.scenario.test_plan.runs == 2 and len(loaded.scenario.test_plan.power_on_s) == 3
+
+
+def test_identical_signatures_cannot_be_separated_and_orientation_separates_scale_factor():
+    """Physics invariants of the criterion.
+
+    * A die lag τ behind the board thermometer, seen through a linear bias tempco b₁ with no
+      scale-factor tempco, leaves r = −b₁·τ·LP_τ(dT/dt): exactly a gradient term of the same τ. No
+      chamber program separates them (expected ΔBIC ≈ 0, against ~10⁵ for the lag's own evidence).
+    * A scale-factor tempco is odd in g: with one orientation the twin's bias tempco absorbs it
+      (ΔBIC ≈ 0); a flip or a tumble makes it stand out.
+    """
+    base = base_scenario(load_scenario(LAG_SCENARIO), None)
+    base["device"]["effects"] = {"static_bias_tc": {"tc1_mg_per_c": 0.8}, "scale_factor_tc": {"tc1_ppm_per_c": 0.0}}
+    p = PlannedTest(-40, 85, 25, (60, 240), 1800, 2, "fixed", 1)
+    hyps = [Hypothesis("thermal_lag", {"tau_s": 300.0}),
+            Hypothesis("thermal_gradient", {"coef_mg_per_c_per_min": 4.0, "tau_s": 300.0}), Hypothesis(NONE)]
+    s = separation(with_program(base, p.program(), p.test_plan()), hyps, draws=1)
+    lag_own, lag_vs_gradient = s.expected_delta_bic[0, 2], s.expected_delta_bic[0, 1]
+    assert lag_own > 1e4
+    assert lag_vs_gradient < 1e-4 * lag_own
+
+    base["twin"] = {"effects": ["static_bias_tc"]}
+    base["device"]["effects"] = {"static_bias_tc": {"tc1_mg_per_c": 0.8}}
+    sf = [Hypothesis("scale_factor_tc", {"tc1_ppm_per_c": 80.0}), Hypothesis(NONE)]
+    dbic = {}
+    for orientation in ("fixed", "flip", "tumble"):
+        p = PlannedTest(-40, 85, 25, (120,), 1800, 1, orientation, 1)
+        dbic[orientation] = separation(with_program(base, p.program(), p.test_plan()), sf, draws=1).expected_delta_bic[0, 1]
+    assert dbic["fixed"] < 1.0
+    assert dbic["flip"] > 1e3 and dbic["tumble"] > 1e3
+
+
+def _finding(**over) -> dict:
+    cand = lambda e, sig, **amp: {"effect": e, "significant": sig, "parameters": {},  # noqa: E731
+                                  "amplitudes": {k: {"value": v, "ci95_half_width": 0.1 * abs(v)} for k, v in amp.items()}}
+    f = {"effects": ["static_bias_tc", "scale_factor_tc"], "selected": ["stress_relaxation"],
+         "rivals": ["thermal_gradient"], "withheld": [], "untestable": [],
+         "aliases": [{"effects": ["stress_relaxation", "thermal_gradient", "thermal_hysteresis"],
+                      "families": ["hysteresis", "thermal_lag"], "remedy": ""}],
+         "candidates": [cand("stress_relaxation", True, k1_mg_per_c=0.4), cand("thermal_gradient", True,
+                        coef_mg_per_c_per_min=0.6), cand("thermal_hysteresis", False, k_mg_per_c=0.3)]}
+    f.update(over)
+    return f
+
+
+def test_rivals_from_a_finding():
+    hyps = hypotheses_from_finding(_finding())
+    assert [(h.effect, h.source) for h in hyps] == [("stress_relaxation", "named"), ("thermal_gradient", "rival")]
+    assert hyps[0].values["k1_mg_per_c"] == 0.4 and hyps[0].amplitude_sd["k1_mg_per_c"] == pytest.approx(0.04 / 1.96)
+    # nothing named: the untestable identifiable effects, one per family, against "none"
+    f = _finding(selected=[], rivals=[], candidates=[], aliases=[], untestable=[
+        {"effect": "scale_factor_tc", "family": "scale_factor", "reason": "", "remedy": ""},
+        {"effect": "probe_offset", "family": "probe", "reason": "", "remedy": ""}],
+        effects=["static_bias_tc"])
+    assert [h.effect for h in hypotheses_from_finding(f)] == ["scale_factor_tc", NONE]
+    assert [h.effect for h in hypotheses_from_finding(_finding(), ["warmup", "aging_drift"])] == ["warmup", "aging_drift"]
+    with pytest.raises(TwinError, match="already in the twin"):
+        hypotheses_from_finding(_finding(), ["static_bias_tc", "warmup"])
+    with pytest.raises(TwinError, match="fewer than two"):
+        hypotheses_from_finding(_finding(selected=[], rivals=[], candidates=[], aliases=[]))
+
+
+def test_drawn_parameters_are_seeded_and_within_bounds():
+    h = Hypothesis("thermal_gradient", {"coef_mg_per_c_per_min": 0.6, "tau_s": 1400.0}, {"coef_mg_per_c_per_min": 0.1})
+    a = [h.draw(np.random.default_rng(3)) for _ in range(50)]
+    b = [h.draw(np.random.default_rng(3)) for _ in range(50)]
+    assert a == b
+    assert all(5.0 <= d["tau_s"] <= 1500.0 for d in a)
+    lag = with_hypothesis(base_scenario(load_scenario(LAG_SCENARIO), None), Hypothesis("thermal_lag", {"tau_s": 250.0}))
+    assert lag["chamber"]["lumped"]["die_tau_s"] == 250.0 and "thermal_lag" not in lag["device"]["effects"]
+
+
+def test_wilson_interval_reference_values():
+    """Wilson (1927) score interval; reference values computed by hand from the closed form."""
+    assert wilson_interval(0, 10) == pytest.approx((0.0, 0.27754), abs=1e-5)
+    assert wilson_interval(5, 10) == pytest.approx((0.23659, 0.76341), abs=1e-5)
+    assert wilson_interval(50, 50)[0] == pytest.approx(0.92865, abs=1e-5)
+
+
+def test_plan_command_designs_a_flip_for_a_scale_factor_tempco(tmp_path):
+    """As a user runs it: the rivals named, a small chamber, a plan checked by simulation."""
+    scn = yaml.safe_load(LAG_SCENARIO.read_text())
+    scn["twin"] = {"effects": ["static_bias_tc"]}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(scn))
+    (tmp_path / "chamber.yaml").write_text("min_c: -20\nmax_c: 60\nmin_ramp_c_per_h: 120\nmax_ramp_c_per_h: 120\n"
+                                           "orientations: [fixed, flip]\nmax_power_ons: 1\n")
+    out, js = tmp_path / "next.yaml", tmp_path / "plan.json"
+    r = run_cli("plan", str(tmp_path / "s.yaml"), "--rivals", "scale_factor_tc,none", "--budget-h", "7",
+                "--chamber", str(tmp_path / "chamber.yaml"), "--draws", "1", "--finalists", "0", "--check-seeds", "1",
+                "-o", str(out), "--json", str(js))
+    assert r.returncode == 0, r.stderr
+    result = json.loads(js.read_text())
+    assert result["plan"]["orientation"] == "flip" and result["plan"]["chamber_hours"] <= 7
+    assert result["plan"]["worst_expected_delta_bic"] > 100 * max(b["worst_expected_delta_bic"] for b in result["baselines"])
+    assert {c["truth"] for c in result["check"]} == {"scale_factor_tc", NONE}
+    text = out.read_text()
+    assert text.startswith("# twin plan:") and "step  kind" in text
+    loaded = load_scenario(out)  # ready for twin run
+    assert loaded.scenario.test_plan.run_applied_g == [1.0, -1.0]
+    assert "scale_factor_tc" in yaml.safe_load(text)["device"]["effects"]  # the leading rival, to simulate
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["--rivals", "warmup"], "at least two rivals"),
+    (["--rivals", "warmup,no_such_effect"], "no_such_effect"),
+    (["--rivals", "warmup,aging_drift", "--budget-h", "0.6"], "--budget-h"),
+    (["--rivals", "warmup,aging_drift", "--chamber", "CHAMBER"], "max_ramp"),
+])
+def test_plan_bad_input_exits_2_with_one_line(tmp_path, args, fragment):
+    (tmp_path / "c.yaml").write_text("min_c: -20\nmax_c: 60\nmax_ramp: 120\n")
+    args = [str(tmp_path / "c.yaml") if a == "CHAMBER" else a for a in args]
+    r = run_cli("plan", str(LAG_SCENARIO), *args, "-o", str(tmp_path / "n.yaml"), "--check-seeds", "0")
+    assert r.returncode == 2, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and fragment in r.stderr, r.stderr
+    assert not (tmp_path / "n.yaml").exists()
+
+
+def test_plan_refuses_to_overwrite_its_input(tmp_path):
+    target = tmp_path / "s.yaml"
+    target.write_text(Path(LAG_SCENARIO).read_text())
+    r = run_cli("plan", str(target), "--rivals", "warmup,aging_drift", "-o", str(target))
+    assert r.returncode == 2 and "overwrite an input" in r.stderr

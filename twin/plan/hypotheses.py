@@ -1,0 +1,183 @@
+"""The rival explanations a plan must separate, read from a compare finding, each calibrated to the
+data the finding came from (docs/plan.md §1).
+
+A :class:`Hypothesis` is the twin plus one registered effect at the values the finding estimated
+(its screening grid point and amplitudes, with their 95 % intervals), or the twin alone (``none``:
+nothing is missing, what looked like an effect is the model's own tempco). A temperature-slot effect
+(the die lag) is simulated through the thermal chain, as a device gets its lag.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from twin.effects import get_effect
+from twin.errors import TwinError
+
+#: the hypothesis "nothing is missing"
+NONE = "none"
+#: spread of a nonlinear parameter's draws around the finding's grid point: the screening grids step
+#: by about ×3, so the estimate is known to within about ×√3 either way
+NONLINEAR_SPREAD = 1.7
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """One rival: the twin plus ``effect`` at ``values``, or the twin alone (``effect == "none"``).
+
+    Attributes
+    ----------
+    effect : str
+        A registered effect, or ``none``.
+    values : dict of str to float
+        Its parameters, in each one's unit (screening grid point and amplitudes).
+    amplitude_sd : dict of str to float
+        Standard deviation of each amplitude from the finding's 95 % interval [its unit].
+    source : str
+        Why it is a rival (``named``, ``rival``, ``withheld``, ``alias``, ``untestable``, ``given``).
+    """
+
+    effect: str
+    values: dict[str, float] = field(default_factory=dict)
+    amplitude_sd: dict[str, float] = field(default_factory=dict)
+    source: str = "given"
+
+    def draw(self, rng: np.random.Generator) -> dict[str, float]:
+        """Parameter values drawn from their uncertainty: amplitudes normal within their interval,
+        nonlinear parameters log-uniform within ×/÷ :data:`NONLINEAR_SPREAD`, clipped to bounds.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+
+        Returns
+        -------
+        dict of str to float
+        """
+        if self.effect == NONE:
+            return {}
+        out = dict(self.values)
+        for p in get_effect(self.effect).parameters:
+            if p.name not in out:
+                continue
+            if p.role == "amplitude" and p.name in self.amplitude_sd:
+                out[p.name] = float(out[p.name] + rng.normal(0.0, self.amplitude_sd[p.name]))
+            elif p.role == "nonlinear" and out[p.name] > 0:
+                out[p.name] = float(out[p.name] * NONLINEAR_SPREAD ** rng.uniform(-1.0, 1.0))
+            out[p.name] = float(np.clip(out[p.name], *p.bounds))
+        return out
+
+
+def default_hypothesis(effect: str, source: str = "given") -> Hypothesis:
+    """``effect`` at its registered defaults (an effect the finding did not screen).
+
+    Parameters
+    ----------
+    effect : str
+        A registered effect or ``none``.
+    source : str
+
+    Returns
+    -------
+    Hypothesis
+
+    Raises
+    ------
+    TwinError
+        An unknown effect (the message lists the registered ones).
+    """
+    if effect == NONE:
+        return Hypothesis(NONE, source=source)
+    try:
+        cls = get_effect(effect)
+    except Exception as exc:  # noqa: BLE001 - the registry's one-line "did you mean"
+        raise TwinError(f"--rivals: {exc}") from None
+    return Hypothesis(effect, {p.name: p.default for p in cls.parameters if p.role != "fixed"}, source=source)
+
+
+def _from_candidate(cand: dict, source: str) -> Hypothesis:
+    """A hypothesis from one candidate record of the compare JSON."""
+    values = dict(cand.get("parameters_refined") or cand.get("parameters") or {})
+    sd = {}
+    for name, a in (cand.get("amplitudes") or {}).items():
+        values[name] = float(a["value"])
+        sd[name] = float(a["ci95_half_width"]) / 1.96
+    known = {p.name for p in get_effect(cand["effect"]).parameters}
+    return Hypothesis(cand["effect"], {k: v for k, v in values.items() if k in known}, sd, source)
+
+
+def hypotheses_from_finding(finding: dict, rivals: list[str] | None = None) -> list[Hypothesis]:
+    """The rivals a finding leaves open, each calibrated to its data.
+
+    With a named effect: it, its rivals of other families, the candidates it was withheld for and
+    the significant members of its alias group. With nothing named: the significant candidates and,
+    when none, the untestable identifiable effects (one per family) against ``none``. ``rivals``
+    overrides the choice (any registered effects, plugins included, or ``none``).
+
+    Parameters
+    ----------
+    finding : dict
+        A ``twin compare --json`` result of one axis.
+    rivals : list of str, optional
+        Effects to separate instead.
+
+    Returns
+    -------
+    list of Hypothesis
+        At least two.
+
+    Raises
+    ------
+    TwinError
+        Fewer than two rivals, or an unknown effect.
+    """
+    cands = {c["effect"]: c for c in finding.get("candidates", [])}
+    model = set(finding.get("effects", []))
+
+    def hyp(effect: str, source: str) -> Hypothesis:
+        if effect in model:
+            raise TwinError(f"--rivals: {effect} is already in the twin's model; name effects it lacks, or none")
+        return _from_candidate(cands[effect], source) if effect in cands else default_hypothesis(effect, source)
+
+    if rivals:
+        out = [hyp(e, "given") for e in dict.fromkeys(rivals)]
+    else:
+        out = _open_rivals(finding, cands, hyp)
+    if len(out) < 2:
+        raise TwinError("the finding leaves fewer than two rivals open "
+                        f"({', '.join(h.effect for h in out) or 'none'}); name them with --rivals A,B")
+    return out
+
+
+def _open_rivals(finding: dict, cands: dict, hyp) -> list[Hypothesis]:
+    """The rivals of :func:`hypotheses_from_finding` without ``--rivals``."""
+    sources: dict[str, str] = {}
+    named = list(finding.get("selected", []))[:1]
+    for e in named:
+        sources[e] = "named"
+    for e in finding.get("rivals", []):
+        sources.setdefault(e, "rival")
+    for w in finding.get("withheld", []):
+        sources.setdefault(w["effect"], "withheld")
+        sources.setdefault(w["outranked_by"], "withheld")
+    for a in finding.get("aliases", []):
+        if a.get("aliased_with") is None and set(named) & set(a["effects"]):
+            for e in a["effects"]:
+                if cands.get(e, {}).get("significant"):
+                    sources.setdefault(e, "alias")
+    if not sources:
+        for e, c in cands.items():
+            if c.get("significant"):
+                sources.setdefault(e, "significant")
+    if not sources:
+        families: set[str] = set()
+        for u in finding.get("untestable", []):
+            cls = get_effect(u["effect"])
+            if cls.identifiable and cls.screened and u["family"] not in families:
+                families.add(u["family"])
+                sources[u["effect"]] = "untestable"
+        if sources:
+            sources[NONE] = "none"
+    return [Hypothesis(NONE, source=s) if e == NONE else hyp(e, s) for e, s in sources.items()]
