@@ -352,6 +352,7 @@ class BPNN(RegressorMixin, BaseEstimator):
         self : BPNN
         """
         from fitting.splits import interleaved_validation_mask  # local: this module is at the 450-line limit
+        from fitting.threads import one_thread
         torch = _torch()
         self._validate_hyperparameters()
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
@@ -398,37 +399,36 @@ class BPNN(RegressorMixin, BaseEstimator):
             state["n"] += 1
             return state["n"] % every == 0 and record(theta, train_loss)
 
-        if self.solver == "lbfgs":
-            # scipy's L-BFGS-B on an analytic gradient, as MLPRegressor does: no autograd graph per call
+        with one_thread(torch):  # small tensors: two threads only wait for each other (fitting.threads)
+            final = self._train(torch, theta0, Xtr, ytr, check)
+            if state["recorded"] != state["n"]:  # the last iterate is judged too (converged between checks)
+                record(final, mse_and_gradient(final, Xtr, ytr, h, act, gradient=False)[0])
+        self.coef_ = (state["best"][1] if use_val else final).copy()
+        self.n_iter_ = state["n"]
+        return self
+
+    def _train(self, torch, theta0, Xtr, ytr, check) -> np.ndarray:
+        """The solver's iterations from ``theta0``; ``check(theta, loss)`` after each says when to stop."""
+        h, act = self.hidden_size, self.activation
+        if self.solver == "lbfgs":  # scipy's L-BFGS-B on an analytic gradient, as MLPRegressor does
             from scipy.optimize import minimize
-            from threadpoolctl import threadpool_limits
 
             def callback(intermediate_result):
                 if check(intermediate_result.x, intermediate_result.fun):
                     raise StopIteration
 
-            # scipy's BLAS on 61-vectors gains nothing from threads, and its spinning threads fight
-            # torch's OpenMP threads for the cores (20× slower on 2 cores without this limit)
-            with threadpool_limits(1, user_api="blas"):
-                res = minimize(lambda th: mse_and_gradient(th, Xtr, ytr, h, act), theta0, jac=True,
-                               method="L-BFGS-B", callback=callback,
-                               options={"maxiter": int(self.max_iter), "maxcor": 20, "ftol": 1e-15, "gtol": 1e-10})
-            final = res.x
-        else:
-            theta = torch.tensor(theta0, dtype=torch.float64, requires_grad=True)
-            opt = torch.optim.Adam([theta], lr=self.learning_rate)
-            for _ in range(int(self.max_iter)):
-                loss, grad = mse_and_gradient(theta.detach().numpy(), Xtr, ytr, h, act)
-                theta.grad = torch.as_tensor(grad)
-                opt.step()
-                if check(theta.detach().numpy(), loss):
-                    break
-            final = theta.detach().numpy()
-        if state["recorded"] != state["n"]:  # the last iterate is judged too (converged between checks)
-            record(final, mse_and_gradient(final, Xtr, ytr, h, act, gradient=False)[0])
-        self.coef_ = (state["best"][1] if use_val else final).copy()
-        self.n_iter_ = state["n"]
-        return self
+            return minimize(lambda th: mse_and_gradient(th, Xtr, ytr, h, act), theta0, jac=True, method="L-BFGS-B",
+                            callback=callback,
+                            options={"maxiter": int(self.max_iter), "maxcor": 20, "ftol": 1e-15, "gtol": 1e-10}).x
+        theta = torch.tensor(theta0, dtype=torch.float64, requires_grad=True)
+        opt = torch.optim.Adam([theta], lr=self.learning_rate)
+        for _ in range(int(self.max_iter)):
+            loss, grad = mse_and_gradient(theta.detach().numpy(), Xtr, ytr, h, act)
+            theta.grad = torch.as_tensor(grad)
+            opt.step()
+            if check(theta.detach().numpy(), loss):
+                break
+        return theta.detach().numpy()
 
     def predict(self, X):
         """Predict [unit of y] with the trained weights.

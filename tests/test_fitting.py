@@ -124,6 +124,23 @@ def test_bpnn_learns_a_smooth_function():
     assert np.mean((short.predict(X) - y) ** 2) < np.mean((start.predict(X) - y) ** 2)
 
 
+def test_bpnn_trains_on_one_thread_and_restores_the_thread_count():
+    """Back-propagation runs torch on one thread (fitting.threads) and gives the caller's count back,
+    also after a refused fit; the same seed still gives the same network."""
+    import torch
+
+    rng = np.random.default_rng(2)
+    X = rng.uniform(-2, 2, (500, 2))
+    y = np.tanh(X[:, 0])
+    before = torch.get_num_threads()
+    a = BPNN(hidden_size=4, max_iter=20, random_state=0).fit(X, y)
+    assert torch.get_num_threads() == before
+    with pytest.raises(ValueError):
+        BPNN(hidden_size=4, max_iter=20, init_weights=np.zeros(3)).fit(X, y)
+    assert torch.get_num_threads() == before
+    np.testing.assert_array_equal(BPNN(hidden_size=4, max_iter=20, random_state=0).fit(X, y).coef_, a.coef_)
+
+
 def test_features_name_and_compose():
     t = np.arange(0, 600, 1.0)
     temp = 20 + 0.01 * t

@@ -99,17 +99,13 @@ def estimated_rows(path: Path, first_line: int) -> int:
 
 
 class _Columns:
-    """The measurement's arrays, preallocated and grown in place (``ndarray.resize``: no second copy)."""
+    """Arrays preallocated per role and grown in place (``ndarray.resize``: no second copy)."""
 
-    def __init__(self, capacity: int, roles: set[str]):
-        self.arrays = {"time": np.empty(capacity), "temperature": np.empty(capacity), "output": np.empty(capacity)}
-        if "applied" in roles:
-            self.arrays["applied"] = np.empty(capacity)
-        self.arrays["run"] = np.empty(capacity, np.int16)
-        self.arrays["power_on"] = np.empty(capacity, bool)
+    def __init__(self, capacity: int, dtypes: dict[str, type]):
+        self.arrays = {role: np.empty(capacity, dtype) for role, dtype in dtypes.items()}
 
     def ensure(self, rows: int) -> None:
-        capacity = self.arrays["time"].size
+        capacity = next(iter(self.arrays.values())).size if self.arrays else 0
         if rows > capacity:
             for a in self.arrays.values():
                 a.resize(max(rows, capacity + capacity // 2), refcheck=False)
@@ -118,6 +114,106 @@ class _Columns:
         for a in self.arrays.values():
             a.resize(rows, refcheck=False)
         return self.arrays
+
+
+#: what the chunked paths give up on (the in-memory and careful paths read the file again and name
+#: the file, line and column); MeasurementError: e.g. output_unit digits without digit_mg
+NOT_CLEAN = (ValueError, TypeError, OverflowError, UnicodeDecodeError, OSError, MeasurementError)
+
+
+def gather_columns(path: Path, first_line: int, open_frames: Callable[[], Iterable], roles, position: Callable,
+                   dtypes: Callable[[set[str]], dict[str, type]],
+                   put: Callable[[dict[str, np.ndarray], dict[str, np.ndarray], int, int], bool],
+                   ) -> tuple[dict[str, np.ndarray], set[str], int] | None:
+    """The needed columns of a file's float64 chunks gathered into arrays grown in place: the
+    parser's frame never holds more than one chunk. The one loop of every chunked path.
+
+    Parameters
+    ----------
+    path : Path
+        The delimited log (its size sizes the arrays: :func:`estimated_rows`).
+    first_line : int
+        The file line of the first data row.
+    open_frames : callable
+        Returns the parser's chunks (DataFrames of float64 columns) as a context manager.
+    roles : tuple
+        ``(role, key, required)`` triples (:func:`~twin.measurement.from_columns.single_axis_roles`).
+    position : callable
+        ``position(columns, key)``: the index of the column ``key`` names, ``None`` if absent.
+    dtypes : callable
+        ``dtypes(found)``: the arrays to allocate, role → dtype, given the roles found in the header.
+    put : callable
+        ``put(values, out, a, b)``: writes one chunk's columns (role → float64 values) into rows
+        ``a:b`` of the arrays; False when the chunk is not clean.
+
+    Returns
+    -------
+    (arrays, found, rows) or None
+        The arrays trimmed to ``rows``, and the roles found; ``None`` when a required column is
+        missing, a chunk is not clean, the parser fails or there are no rows.
+    """
+    import pandas as pd
+
+    store, wanted, n = None, None, 0
+    try:
+        with open_frames() as frames:
+            for frame in frames:
+                if not len(frame):
+                    continue
+                if wanted is None:
+                    names = [str(c).strip() for c in frame.columns]
+                    wanted = {role: position(names, key) for role, key, _ in roles if key is not None}
+                    if any(wanted[role] is None for role, key, required in roles if key is not None and required):
+                        return None
+                    wanted = {role: idx for role, idx in wanted.items() if idx is not None}
+                    store = _Columns(estimated_rows(path, first_line), dtypes(set(wanted)))
+                values = {role: frame.iloc[:, idx].to_numpy(np.float64) for role, idx in wanted.items()}
+                store.ensure(n + len(frame))
+                if not put(values, store.arrays, n, n + len(frame)):
+                    return None
+                n += len(frame)
+                del frame, values
+    except NOT_CLEAN + (pd.errors.ParserError, pd.errors.EmptyDataError):
+        return None
+    if store is None or not n:
+        return None
+    return store.trim(n), set(wanted), n
+
+
+def _measurement_dtypes(found: set[str]) -> dict[str, type]:
+    """The final arrays of a :class:`Measurement`: run as int16, power as bool."""
+    return {"time": np.float64, "temperature": np.float64, "output": np.float64,
+            **({"applied": np.float64} if "applied" in found else {}), "run": np.int16, "power_on": bool}
+
+
+class _Converter:
+    """One chunk's columns checked and converted into the measurement's arrays (``put`` of
+    :func:`gather_columns`); holds the time origin, the first row's time, across chunks."""
+
+    def __init__(self, cmap: ColumnMap, run: int):
+        self.cmap, self.run, self.factor, self.t0 = cmap, run, time_factor_s(cmap.time_unit), None
+
+    def __call__(self, values: dict[str, np.ndarray], out: dict[str, np.ndarray], a: int, b: int) -> bool:
+        if not all(np.isfinite(v).all() for v in values.values()):
+            return False
+        if "run" in values and not_whole_in_range(values["run"], 0, RUN_MAX).any():
+            return False
+        if "power_on" in values and not_whole_in_range(values["power_on"], 0, 1).any():
+            return False
+        if "time" in values:
+            t = values["time"] * self.factor if self.factor != 1.0 else values["time"]  # x·1 == x: no copy
+            self.t0 = t[0] if self.t0 is None else self.t0
+            np.subtract(t, self.t0, out=out["time"][a:b])
+        out["temperature"][a:b] = convert_temperature_c(values["temperature"], self.cmap)
+        out["output"][a:b] = convert_output(values["output"], self.cmap)
+        if "applied" in values:
+            out["applied"][a:b] = values["applied"]
+        out["run"][a:b] = values["run"] if "run" in values else self.run
+        if "power_on" in values:
+            np.not_equal(values["power_on"], 0.0, out=out["power_on"][a:b])
+        else:
+            out["power_on"][a:b] = False
+        return True
 
 
 def measurement_from_chunks(path: Path, cmap: ColumnMap, open_frames: Callable[[], Iterable], roles,
@@ -147,54 +243,12 @@ def measurement_from_chunks(path: Path, cmap: ColumnMap, open_frames: Callable[[
     Measurement or None
         Time [s], temperature [°C], output [g] …; ``None`` when the file is not clean.
     """
-    import pandas as pd
-
-    factor = time_factor_s(cmap.time_unit)
-    store, wanted, t0, n = None, None, None, 0
-    try:
-        with open_frames() as frames:
-            for frame in frames:
-                if not len(frame):
-                    continue
-                if wanted is None:
-                    names = [str(c).strip() for c in frame.columns]
-                    wanted = {role: position(names, key) for role, key, _ in roles if key is not None}
-                    if any(wanted[role] is None for role, key, required in roles if key is not None and required):
-                        return None
-                    wanted = {role: idx for role, idx in wanted.items() if idx is not None}
-                    store = _Columns(estimated_rows(path, first_line), set(wanted))
-                values = {role: frame.iloc[:, idx].to_numpy(np.float64) for role, idx in wanted.items()}
-                if not all(np.isfinite(v).all() for v in values.values()):
-                    return None
-                if "run" in values and not_whole_in_range(values["run"], 0, RUN_MAX).any():
-                    return None
-                if "power_on" in values and not_whole_in_range(values["power_on"], 0, 1).any():
-                    return None
-                a, b = n, n + len(frame)
-                store.ensure(b)
-                out = store.arrays
-                if "time" in values:
-                    t = values["time"] * factor if factor != 1.0 else values["time"]  # x·1 == x: no copy
-                    t0 = t[0] if t0 is None else t0
-                    np.subtract(t, t0, out=out["time"][a:b])
-                out["temperature"][a:b] = convert_temperature_c(values["temperature"], cmap)
-                out["output"][a:b] = convert_output(values["output"], cmap)
-                if "applied" in values:
-                    out["applied"][a:b] = values["applied"]
-                out["run"][a:b] = values["run"] if "run" in values else run
-                if "power_on" in values:
-                    np.not_equal(values["power_on"], 0.0, out=out["power_on"][a:b])
-                else:
-                    out["power_on"][a:b] = False
-                n = b
-                del frame, values
-    except (ValueError, TypeError, OverflowError, UnicodeDecodeError, OSError, pd.errors.ParserError,
-            MeasurementError):  # e.g. output_unit digits without digit_mg: named where the old path names it
-        return None  # the in-memory and careful paths read it again and name what is wrong
-    if store is None or n < MIN_ROWS:
+    gathered = gather_columns(path, first_line, open_frames, roles, position, _measurement_dtypes,
+                              _Converter(cmap, run))
+    if gathered is None or gathered[2] < MIN_ROWS:
         return None
-    arrays = store.trim(n)
-    if "time" not in wanted:
+    arrays, found, n = gathered
+    if "time" not in found:
         arrays["time"][:] = np.arange(n) / cmap.sample_rate_hz
     if "applied" in arrays:
         applied, known = arrays["applied"], True
@@ -204,4 +258,3 @@ def measurement_from_chunks(path: Path, cmap: ColumnMap, open_frames: Callable[[
                     arrays["power_on"], known, [str(path)], 0, [])
     check(m, str(path))
     return m
-

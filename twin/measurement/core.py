@@ -109,7 +109,8 @@ def check(m: Measurement, where: str) -> None:
     """
     check_arrays(m, where)
     single = m.run_index.size == 0 or m.run_index.min() == m.run_index.max()
-    for r in np.unique(m.run_index):
+    # one run: its number, not a sort of a long log's run column (np.unique: 0.1 s at 8.64 M rows)
+    for r in (m.run_index[:1] if single else np.unique(m.run_index)):
         t = m.time_s if single else m.time_s[m.run_index == r]  # one run: no copy of a long log
         d = np.diff(t)
         if np.any(d <= 0):

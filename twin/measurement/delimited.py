@@ -201,39 +201,25 @@ def _fast_values(path: Path, cmap: ColumnMap, layout: _Layout, roles, skip_bad_r
     return {role: df.iloc[:, idx].to_numpy(np.float64) for role, idx in wanted.items() if idx is not None}
 
 
-def _chunked_values(path: Path, cmap: ColumnMap, layout: _Layout, roles, skip_bad_rows: bool) -> dict | None:
-    """:func:`_fast_values` of a large file, its needed columns gathered chunk by chunk into arrays
-    grown in place: the parser's frame never holds more than one chunk (bit for bit the same values:
-    the same parser, options and dtype)."""
-    import pandas as pd
+def _chunk_opener(path: Path, cmap: ColumnMap, layout: _Layout, skip_bad_rows: bool):
+    """Opens the fast path's parser, every field float64, :data:`~twin.measurement.chunked.CHUNK_ROWS` rows at a time."""
+    return lambda: _read_csv(path, cmap, layout, skip_bad_rows, dtype=np.float64, chunksize=chunked.CHUNK_ROWS)
 
-    out, wanted, n = {}, None, 0
-    try:
-        with _read_csv(path, cmap, layout, skip_bad_rows, dtype=np.float64, chunksize=chunked.CHUNK_ROWS) as frames:
-            for frame in frames:
-                if wanted is None:
-                    columns = [str(c).strip() for c in frame.columns]
-                    wanted = {role: _position(columns, key) for role, key, _ in roles if key is not None}
-                    if any(wanted[role] is None for role, key, required in roles if key is not None and required):
-                        return None
-                    wanted = {role: idx for role, idx in wanted.items() if idx is not None}
-                    out = {role: np.empty(chunked.estimated_rows(path, layout.first_line)) for role in wanted}
-                size = next(iter(out.values())).size if out else 0
-                if n + len(frame) > size:
-                    for a in out.values():
-                        a.resize(max(n + len(frame), size + size // 2), refcheck=False)
-                for role, idx in wanted.items():
-                    out[role][n:n + len(frame)] = frame.iloc[:, idx].to_numpy(np.float64)
-                n += len(frame)
-                del frame
-    except (ValueError, TypeError, OverflowError, UnicodeDecodeError, OSError, pd.errors.ParserError,
-            pd.errors.EmptyDataError):
-        return None
-    if not n:
-        return None
-    for a in out.values():
-        a.resize(n, refcheck=False)
-    return out
+
+def _chunked_values(path: Path, cmap: ColumnMap, layout: _Layout, roles, skip_bad_rows: bool) -> dict | None:
+    """:func:`_fast_values` of a large file, its needed columns gathered chunk by chunk
+    (:func:`~twin.measurement.chunked.gather_columns`; bit for bit the same values: the same
+    parser, options and dtype)."""
+
+    def put(values, out, a, b):
+        for role, v in values.items():
+            out[role][a:b] = v
+        return True
+
+    gathered = chunked.gather_columns(path, layout.first_line, _chunk_opener(path, cmap, layout, skip_bad_rows),
+                                      roles, _position,
+                                      lambda found: dict.fromkeys(found, np.float64), put)
+    return None if gathered is None else gathered[0]
 
 
 def _numeric_columns(path: Path, cmap: ColumnMap, roles, skip_bad_rows: bool):
@@ -308,9 +294,8 @@ def _large_measurement(path: Path, cmap: ColumnMap, roles, skip_bad_rows: bool, 
     layout = _layout(path, cmap)
     if layout.sep == r"\s+":
         return None
-    open_frames = lambda: _read_csv(path, cmap, layout, skip_bad_rows, dtype=np.float64,  # noqa: E731
-                                    chunksize=chunked.CHUNK_ROWS)
-    return chunked.measurement_from_chunks(path, cmap, open_frames, roles, _position, layout.first_line, run, applied_g)
+    return chunked.measurement_from_chunks(path, cmap, _chunk_opener(path, cmap, layout, skip_bad_rows), roles,
+                                           _position, layout.first_line, run, applied_g)
 
 
 def read_table_imu(path: str | Path, cmap: ColumnMap, *, skip_bad_rows: bool = False) -> ImuLog:
