@@ -4,12 +4,15 @@ budget, each simulated with either effect as the truth and diagnosed blind.
 
 Pairs (the twin's model, truth A, truth B):
 
-* scale factor vs bias tempco — twin: static_bias_tc; A: scale_factor_tc (40–150 ppm/°C), B: none
-  (the twin's bias tempco is the whole story). One orientation cannot tell them apart.
-* lag vs gradient — twin: static_bias_tc (curved) + scale_factor_tc; A: a die lag behind the board
-  thermometer (τ 120–400 s), B: thermal_gradient.
-* creep vs hysteresis — A: stress_relaxation (τ 1–3 h), B: thermal_hysteresis (play of 1.5–5 °C).
-* aging vs warm-up — A: aging_drift (0.05–0.15 mg/h), B: warmup (0.5–1.5 mg, τ 60–250 s).
+* scale factor vs bias tempco — twin: static_bias_tc; A: scale_factor_tc (80 ppm/°C), B: none (the
+  twin's bias tempco is the whole story). One orientation cannot tell them apart.
+* lag vs gradient — twin: static_bias_tc + scale_factor_tc, the device's bias tempco linear; A: a
+  die lag of 200 s behind the board thermometer, B: thermal_gradient.
+* creep vs hysteresis — A: stress_relaxation (τ 3 h), B: thermal_hysteresis.
+* aging vs warm-up — A: aging_drift (0.1 mg/h), B: warmup.
+
+Truth B's values are those the starting finding calibrated for B on truth A's log (what B must be to
+explain that log); each seed of the check draws both within the finding's intervals.
 
 Original protocol (``ORIGINAL``): 25 → 85 → −40 → 25 °C at 60 °C/h with 30-min dwells, one run at
 +1 g, one power-on, 1 Hz (6.7 h). Steps, per pair, as a user runs them:
@@ -50,24 +53,30 @@ ORIGINAL = {
               {"type": "hold", "dwell_s": 1800}, {"type": "ramp", "target_c": 25.0, "ramp_c_per_h": 60},
               {"type": "hold", "dwell_s": 1800}],
 }
-BIAS = {"tc1_mg_per_c": 0.5, "tc2_mg_per_c2": 1.5e-3}
-#: pair → (twin effects, truth A as (effect, device values, chamber die τ), truth B)
+#: the device's bias tempco: curved (a lag seen through it changes with temperature) or linear
+CURVED = {"tc1_mg_per_c": 0.5, "tc2_mg_per_c2": 1.5e-3}
+LINEAR = {"tc1_mg_per_c": 0.5}
+#: pair → (twin effects, the device's bias tempco, truth A as (effect, device values), truth B). The truth
+#: A of the starting log is where the original protocol cannot tell A from B: with a linear bias tempco
+#: a die lag is a gradient term on one orientation (only the scale-factor tempco, odd in g, sees the
+#: lagged die); creep with τ of hours on 30-min dwells is a loop that does not settle, as play does
 PAIRS = {
-    "scale_factor_vs_bias_tc": (["static_bias_tc"], ("scale_factor_tc", {"tc1_ppm_per_c": 80.0}), ("none", {})),
-    "lag_vs_gradient": (["static_bias_tc", "scale_factor_tc"], ("thermal_lag", {"tau_s": 200.0}),
+    "scale_factor_vs_bias_tc": (["static_bias_tc"], CURVED, ("scale_factor_tc", {"tc1_ppm_per_c": 80.0}),
+                                ("none", {})),
+    "lag_vs_gradient": (["static_bias_tc", "scale_factor_tc"], LINEAR, ("thermal_lag", {"tau_s": 200.0}),
                         ("thermal_gradient", {"coef_mg_per_c_per_min": 0.6, "tau_s": 200.0})),
-    "creep_vs_hysteresis": (["static_bias_tc", "scale_factor_tc"],
-                            ("stress_relaxation", {"k1_mg_per_c": 0.03, "tau_s": 6000.0}),
+    "creep_vs_hysteresis": (["static_bias_tc", "scale_factor_tc"], CURVED,
+                            ("stress_relaxation", {"k1_mg_per_c": 0.03, "tau_s": 10800.0}),
                             ("thermal_hysteresis", {"k_mg_per_c": 0.08, "half_width_c": 3.0})),
-    "aging_vs_warmup": (["static_bias_tc", "scale_factor_tc"], ("aging_drift", {"rate_mg_per_h": 0.1}),
+    "aging_vs_warmup": (["static_bias_tc", "scale_factor_tc"], CURVED, ("aging_drift", {"rate_mg_per_h": 0.1}),
                         ("warmup", {"amplitude_mg": 1.0, "tau_s": 120.0})),
 }
 
 
-def scenario(twin: list[str], truth: tuple[str, dict]) -> dict:
+def scenario(twin: list[str], bias: dict, truth: tuple[str, dict]) -> dict:
     """The original protocol with ``truth`` in the device (a die lag through the thermal chain)."""
     effect, values = truth
-    device = {"static_bias_tc": dict(BIAS), "scale_factor_tc": {"tc1_ppm_per_c": 60.0}}
+    device = {"static_bias_tc": dict(bias), "scale_factor_tc": {"tc1_ppm_per_c": 60.0}}
     device = {k: v for k, v in device.items() if k in twin}
     lumped = {"board_tau_s": 300.0, "die_tau_s": 1.0}
     if effect == "thermal_lag":
@@ -87,9 +96,9 @@ def twin_cmd(*args: str) -> subprocess.CompletedProcess:
 
 
 def run_pair(name: str, seeds: int, workers: int, budget_h: float, tmp: Path) -> dict:
-    twin, a, b = PAIRS[name]
+    twin, bias, a, b = PAIRS[name]
     scn = tmp / f"{name}.yaml"
-    scn.write_text(yaml.safe_dump(scenario(twin, a), sort_keys=False))
+    scn.write_text(yaml.safe_dump(scenario(twin, bias, a), sort_keys=False))
     h5, finding, plan_yaml, plan_json = (tmp / f"{name}.{ext}" for ext in ("h5", "finding.json", "plan.yaml", "plan.json"))
     for args in (("run", str(scn), "-o", str(h5)), ("compare", str(scn), str(h5), "--json", str(finding))):
         p = twin_cmd(*args)
@@ -100,7 +109,8 @@ def run_pair(name: str, seeds: int, workers: int, budget_h: float, tmp: Path) ->
              "untestable": [u["effect"] for u in f["untestable"]],
              "withheld": [w["effect"] + "/" + w["outranked_by"] for w in f["withheld"]],
              "candidates_significant": [c["effect"] for c in f["candidates"] if c["significant"]]}
-    out: dict = {"twin": twin, "truths": [a[0], b[0]], "starting_log": {"truth": a[0], "values": a[1], **start}}
+    out: dict = {"twin": twin, "bias_tc": bias, "truths": [a[0], b[0]],
+                 "starting_log": {"truth": a[0], "values": a[1], **start}}
     t0 = time.perf_counter()
     p = twin_cmd("plan", str(finding), str(scn), "--rivals", f"{a[0]},{b[0]}", "--budget-h", str(budget_h),
                  "--check-seeds", str(seeds), "--check-baseline", "--workers", str(workers), "-o", str(plan_yaml),

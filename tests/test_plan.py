@@ -130,18 +130,30 @@ def test_wilson_interval_reference_values():
 
 
 def test_plan_command_designs_a_flip_for_a_scale_factor_tempco(tmp_path):
-    """As a user runs it: the rivals named, a small chamber, a plan checked by simulation."""
+    """As a user runs it: a finding on one orientation, a small chamber, a plan checked by simulation."""
     scn = yaml.safe_load(LAG_SCENARIO.read_text())
     scn["twin"] = {"effects": ["static_bias_tc"]}
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(scn))
     (tmp_path / "chamber.yaml").write_text("min_c: -20\nmax_c: 60\nmin_ramp_c_per_h: 120\nmax_ramp_c_per_h: 120\n"
                                            "orientations: [fixed, flip]\nmax_power_ons: 1\n")
+    # the finding of one orientation: the scale-factor family and a package stress untestable
+    untestable = [{"effect": e, "family": f, "reason": "", "remedy": ""} for e, f in (
+        ("comb_expansion", "scale_factor"), ("package_stress", "bias_tc"), ("probe_offset", "probe"),
+        ("scale_factor_tc", "scale_factor"))]
+    finding = {"effects": ["static_bias_tc"], "selected": [], "rivals": [], "withheld": [], "aliases": [],
+               "candidates": [], "untestable": untestable, "noise_floor_g": 1.5e-3, "sample_rate_hz": 1.0,
+               "parameters": {"static_bias_tc": {"tc1_mg_per_c": {"value": 0.8}}}}
+    (tmp_path / "finding.json").write_text(json.dumps(finding))
     out, js = tmp_path / "next.yaml", tmp_path / "plan.json"
-    r = run_cli("plan", str(tmp_path / "s.yaml"), "--rivals", "scale_factor_tc,none", "--budget-h", "7",
+    r = run_cli("plan", str(tmp_path / "finding.json"), str(tmp_path / "s.yaml"), "--budget-h", "7",
                 "--chamber", str(tmp_path / "chamber.yaml"), "--draws", "1", "--finalists", "0", "--check-seeds", "1",
                 "-o", str(out), "--json", str(js))
     assert r.returncode == 0, r.stderr
     result = json.loads(js.read_text())
+    # one representative per family (the fitted scale-factor tempco, not the geometric comb term); the
+    # package stress, which no chamber program shows against the twin's bias tempco, set aside
+    assert [x["effect"] for x in result["rivals"]] == ["scale_factor_tc", NONE]
+    assert result["set_aside"] == ["package_stress"]
     assert result["plan"]["orientation"] == "flip" and result["plan"]["chamber_hours"] <= 7
     assert result["plan"]["worst_expected_delta_bic"] > 100 * max(b["worst_expected_delta_bic"] for b in result["baselines"])
     assert {c["truth"] for c in result["check"]} == {"scale_factor_tc", NONE}

@@ -156,7 +156,9 @@ def _scenario_and_finding(inputs: list[Path], axis: str | None, imu: int | None)
 def _print(result, output: Path) -> None:
     p = result.plan
     typer.echo(f"plan: {p.description} ({p.chamber_hours:.3g} h) -> {output}")
-    typer.echo("rivals: " + ", ".join(f"{r.effect} ({r.source})" for r in result.rivals))
+    typer.echo("rivals: " + ", ".join(f"{r.effect} ({r.source})" for r in result.rivals)
+               + (f"; set aside (no test in the budget makes them visible): {', '.join(result.set_aside)}"
+                  if result.set_aside else ""))
     for q in p.pairs:
         typer.echo(f"  {q.truth} true, over {q.rival}: expected ΔBIC {q.expected_delta_bic:.3g}")
     for b in result.baselines:

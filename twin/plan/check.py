@@ -153,7 +153,7 @@ def run_jobs(fn: Callable, jobs: list, workers: int = 1, executor: str = "local"
 
 
 def check_plan(scenario: dict, hyps: list[Hypothesis], seeds: int, predicted: dict[str, float],
-               first_seed: int = 1000, **run) -> tuple[CheckRate, ...]:
+               first_seed: int = 1000, runner: Callable[[Callable, list], list] | None = None) -> tuple[CheckRate, ...]:
     """Each hypothesis as the truth on ``seeds`` simulated tests, diagnosed blind.
 
     Parameters
@@ -167,15 +167,15 @@ def check_plan(scenario: dict, hyps: list[Hypothesis], seeds: int, predicted: di
         The predicted rates, carried into the records.
     first_seed : int
         Seed of the first test (the others follow).
-    **run
-        ``workers``, ``executor``, ``scheduler``, ``progress`` of :func:`run_jobs`.
+    runner : callable, optional
+        ``runner(fn, jobs)`` → results in order (default: :func:`run_jobs` in this process).
 
     Returns
     -------
     tuple of CheckRate
     """
     jobs = [(scenario, h, first_seed + s) for h in hyps for s in range(seeds)]
-    named = run_jobs(diagnose_once, jobs, **run)
+    named = (runner or run_jobs)(diagnose_once, jobs)
     out = []
     for k, h in enumerate(hyps):
         mine = named[k * seeds:(k + 1) * seeds]

@@ -23,7 +23,8 @@ from twin.plan.hypotheses import NONE, Hypothesis, default_hypothesis, hypothese
 from twin.plan.programs import ChamberLimits, PlannedTest, candidate_programs, program_hours
 from twin.plan.result import PairSeparation, PlanResult, ProgramStep, RivalRecord, TestDesign
 from twin.plan.scenarios import base_scenario, with_hypothesis, with_program
-from twin.plan.separation import Separation, separation
+from twin.plan.separation import DETECT_BIC, Separation, separation
+
 
 
 @dataclass(frozen=True)
@@ -223,43 +224,94 @@ def plan_test(loaded: LoadedScenario, finding: dict | None, settings: PlanSettin
     if not programs:
         raise TwinError(f"--budget-h {s.budget_h:g}: no test within the chamber's limits fits; one cycle "
                         f"{s.limits.min_c:g} → {s.limits.max_c:g} °C needs more hours")
-    obvious = []
+    obvious = obvious_tests(loaded, s)
+    tests = [(p.program(), p.test_plan()) for p in programs] + [(o[2], o[3]) for o in obvious]
+    check_base = s.check_baseline and bool(obvious) and obvious[0][0] == "protocol_repeated"
+    total = (len(tests) + (min(s.finalists, len(programs)) + len(obvious)) * (s.finalists > 0)
+             + s.check_seeds * len(hyps) * (1 + check_base))
+    done = [0]
+
+    def run(fn, jobs):  # every phase on one progress bar
+        tick = None if progress is None else (lambda k, n: progress(done[0] + k, total))
+        out = run_jobs(fn, jobs, s.workers, s.executor, s.scheduler, tick)
+        done[0] += len(jobs)
+        return out
+
+    seps = run(_score, [(with_program(base, *t), hyps, s.draws, s.seed) for t in tests])
+    unseen = _invisible(hyps, seps[:len(programs)])
+    hyps = [h for h in hyps if h.effect not in unseen]
+    seps = [sep.without(unseen) for sep in seps]
+    # the least predicted rate first (the decision rule's held-out gain can bind where ΔBIC does not),
+    # then the T-optimal criterion, then the shorter test; the best few and the obvious tests again
+    # with the random-walk retest
+    key = lambda i, sep: (round(sep[i].least_rate, 3), sep[i].score, -programs[i].hours())  # noqa: E731
+    top = sorted(range(len(programs)), key=lambda i: key(i, seps), reverse=True)[:max(1, s.finalists)]
+    if s.finalists > 0:
+        again = top + list(range(len(programs), len(tests)))
+        seps = dict(zip(again, run(_score, [(with_program(base, *tests[i]), hyps, s.draws, s.seed, True)
+                                            for i in again])))
+    k = max(top, key=lambda i: key(i, seps))
+    best, best_sep = programs[k], seps[k]
+    design = _design("plan", best.label(), best.hours(), best.test_plan(), best.orientation, best_sep)
+    baselines = tuple(_design(n, d, h, tp, _orientation(tp), seps[len(programs) + j])
+                      for j, (n, d, _, tp, h) in enumerate(obvious))
+    scenario = with_program(base, *tests[k])
+    check = base_check = None
+    if s.check_seeds > 0:
+        check = check_plan(scenario, hyps, s.check_seeds, best_sep.predicted_rate, runner=run)
+        if check_base:
+            base_check = check_plan(with_program(base, *tests[len(programs)]), hyps, s.check_seeds,
+                                    seps[len(programs)].predicted_rate, runner=run)
+    result = PlanResult(
+        rivals=tuple(RivalRecord(h.effect, h.source, h.values) for h in hyps), set_aside=tuple(sorted(unseen)),
+        budget_h=s.budget_h, candidates_evaluated=len(programs), plan=design,
+        program=program_table(best.start_c, best.steps()), amplitude_ci95=best_sep.amplitude_ci95,
+        baselines=baselines, why=_why(design, baselines), check=check, baseline_check=base_check)
+    leading = next((h for h in hyps if h.effect != NONE), hyps[0])
+    return result, with_hypothesis(scenario, leading)
+
+
+def obvious_tests(loaded: LoadedScenario, s: PlanSettings) -> list[tuple[str, str, dict, dict, float]]:
+    """The tests a user would run without a plan, within the budget: the scenario's protocol
+    repeated, and a second ramp rate alone.
+
+    Parameters
+    ----------
+    loaded : LoadedScenario
+    s : PlanSettings
+
+    Returns
+    -------
+    list of tuple
+        (name, description, program, test plan, chamber hours) of each that fits the budget.
+    """
+    out = []
     repeated = protocol_repeated(loaded, s.budget_h)
     if repeated is not None:
         prog, plan, hours = repeated
-        obvious.append(("protocol_repeated", f"the scenario's protocol, {prog['cycles']} cycle(s)", prog, plan, hours))
+        out.append(("protocol_repeated", f"the scenario's protocol, {prog['cycles']} cycle(s)", prog, plan, hours))
     second = second_rate_alone(loaded, s.budget_h, s.limits)
     if second is not None:
-        obvious.append(("second_rate_alone", second.label(), second.program(), second.test_plan(), second.hours()))
-    jobs = [(with_program(base, p.program(), p.test_plan()), hyps, s.draws, s.seed) for p in programs]
-    jobs += [(with_program(base, o[2], o[3]), hyps, s.draws, s.seed) for o in obvious]
-    seps = run_jobs(_score, jobs, s.workers, s.executor, s.scheduler, progress)
-    # the least predicted rate first (the decision rule's held-out gain can bind where ΔBIC does not),
-    # then the T-optimal criterion, then the shorter test; the best few again with the walk retest
-    key = lambda i, sep: (round(sep[i].least_rate, 3), sep[i].score, -programs[i].hours())  # noqa: E731
-    top = sorted(range(len(programs)), key=lambda i: key(i, seps), reverse=True)[:max(1, s.finalists)]
-    final = (dict(zip(top, run_jobs(_score, [(*jobs[i], True) for i in top], s.workers, s.executor, s.scheduler)))
-             if s.finalists > 0 else seps)
-    k = max(top, key=lambda i: key(i, final))
-    best, best_sep = programs[k], final[k]
-    design = _design("plan", best.label(), best.hours(), best.test_plan(), best.orientation, best_sep)
-    baselines = tuple(_design(n, d, h, tp, _orientation(tp), sep)
-                      for (n, d, _, tp, h), sep in zip(obvious, seps[len(programs):]))
-    scenario = with_program(base, best.program(), best.test_plan())
-    check = base_check = None
-    if s.check_seeds > 0:
-        run = dict(workers=s.workers, executor=s.executor, scheduler=s.scheduler, progress=progress)
-        check = check_plan(scenario, hyps, s.check_seeds, best_sep.predicted_rate, **run)
-        if s.check_baseline and repeated is not None:
-            base_check = check_plan(with_program(base, repeated[0], repeated[1]), hyps, s.check_seeds,
-                                    seps[len(programs)].predicted_rate, **run)
-    result = PlanResult(
-        rivals=tuple(RivalRecord(h.effect, h.source, h.values) for h in hyps), budget_h=s.budget_h,
-        candidates_evaluated=len(programs), plan=design, program=program_table(best.start_c, best.steps()),
-        amplitude_ci95=best_sep.amplitude_ci95, baselines=baselines, why=_why(design, baselines),
-        check=check, baseline_check=base_check)
-    leading = next((h for h in hyps if h.effect != NONE), hyps[0])
-    return result, with_hypothesis(scenario, leading)
+        out.append(("second_rate_alone", second.label(), second.program(), second.test_plan(), second.hours()))
+    return out
+
+
+def _invisible(hyps: list[Hypothesis], seps: list[Separation]) -> set[str]:
+    """Rivals no candidate makes visible: their expected screening ΔBIC against the twin alone is
+    under the decision rule's on every test (absorbed by the twin, e.g. a package stress against the
+    twin's own bias tempco). No chamber program separates them, so they are set aside.
+
+    Raises
+    ------
+    TwinError
+        Fewer than two rivals would remain.
+    """
+    unseen = {h.effect for h in hyps if h.effect != NONE and max(sep.own_evidence[h.effect] for sep in seps) < DETECT_BIC}
+    if len(hyps) - len(unseen) < 2:
+        raise TwinError("no test within the budget and the chamber's limits makes "
+                        f"{', '.join(sorted(unseen))} visible against the twin: a chamber program cannot "
+                        "separate it (see the finding's remedy)")
+    return unseen
 
 
 def _why(plan: TestDesign, baselines: tuple[TestDesign, ...]) -> str:
@@ -291,6 +343,8 @@ def scenario_yaml(result: PlanResult, scenario: dict) -> str:
     lines = [f"# twin plan: {p.description}",
              f"# chamber time {p.chamber_hours:.3g} h ({p.runs} run{'s' * (p.runs > 1)}); rivals: "
              + ", ".join(r.effect for r in result.rivals),
+             *([f"# set aside (no test in the budget makes them visible): {', '.join(result.set_aside)}"]
+               if result.set_aside else []),
              "# program of each run:",
              "#   step  kind   from °C   to °C   rate °C/h   hours   ends at h"]
     for r in result.program:

@@ -172,12 +172,19 @@ def _open_rivals(finding: dict, cands: dict, hyp) -> list[Hypothesis]:
             if c.get("significant"):
                 sources.setdefault(e, "significant")
     if not sources:
-        families: set[str] = set()
+        # this data could not test them, so their values are the library's defaults, not a fit
+        by_family: dict[str, list[str]] = {}
         for u in finding.get("untestable", []):
             cls = get_effect(u["effect"])
-            if cls.identifiable and cls.screened and u["family"] not in families:
-                families.add(u["family"])
-                sources[u["effect"]] = "untestable"
-        if sources:
-            sources[NONE] = "none"
+            if cls.identifiable and cls.screened:
+                by_family.setdefault(u["family"], []).append(u["effect"])
+        out = [default_hypothesis(min(names, key=_simplest), "untestable") for names in by_family.values()]
+        return out + [Hypothesis(NONE, source="none")] if out else []
     return [Hypothesis(NONE, source=s) if e == NONE else hyp(e, s) for e, s in sources.items()]
+
+
+def _simplest(effect: str) -> tuple:
+    """Sort key of a family's representative: amplitudes fitted by default first (a microstructure
+    effect takes its amplitude from geometry), then the fewest parameters."""
+    params = get_effect(effect).parameters
+    return (not all(p.free for p in params if p.role == "amplitude"), len(params), effect)

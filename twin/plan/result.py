@@ -110,6 +110,8 @@ class PlanResult:
     Attributes
     ----------
     rivals : tuple of RivalRecord
+    set_aside : tuple of str
+        Rivals no candidate test makes visible against the twin (no chamber program separates them).
     budget_h : float
         Chamber hours allowed [h].
     candidates_evaluated : int
@@ -131,6 +133,7 @@ class PlanResult:
     """
 
     rivals: tuple[RivalRecord, ...]
+    set_aside: tuple[str, ...]
     budget_h: float
     candidates_evaluated: int
     plan: TestDesign

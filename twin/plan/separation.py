@@ -57,6 +57,8 @@ class Separation:
         Predicted 95 % half-width of each hypothesis' amplitudes [their unit].
     rows : int
         Block means the diagnosis would see.
+    own_evidence : dict of str to float
+        Expected screening ΔBIC of each hypothesis against the twin alone, λ + m − m ln n [1].
     """
 
     effects: tuple[str, ...]
@@ -64,6 +66,7 @@ class Separation:
     predicted_rate: dict[str, float]
     amplitude_ci95: dict[str, dict[str, float]]
     rows: int
+    own_evidence: dict[str, float]
 
     def worst_pair(self) -> tuple[str, str, float]:
         """The pair (true, rival) with the least expected ΔBIC, and that ΔBIC."""
@@ -78,6 +81,23 @@ class Separation:
     def score(self) -> float:
         """The criterion: the least expected ΔBIC over ordered pairs of real effects [1]."""
         return self.worst_pair()[2]
+
+    def without(self, effects: set[str]) -> Separation:
+        """This separation with ``effects`` left out (rows, columns and rates).
+
+        Parameters
+        ----------
+        effects : set of str
+
+        Returns
+        -------
+        Separation
+        """
+        keep = [i for i, e in enumerate(self.effects) if e not in effects]
+        return Separation(tuple(self.effects[i] for i in keep), self.expected_delta_bic[np.ix_(keep, keep)],
+                          {e: r for e, r in self.predicted_rate.items() if e not in effects},
+                          {e: a for e, a in self.amplitude_ci95.items() if e not in effects}, self.rows,
+                          {e: v for e, v in self.own_evidence.items() if e not in effects})
 
     @property
     def least_rate(self) -> float:
@@ -241,7 +261,7 @@ def separation(scenario: dict, hyps: list[Hypothesis], draws: int = 3, seed: int
     rng = np.random.default_rng(np.random.SeedSequence([seed, 29]))
     effects = tuple(h.effect for h in hyps)
     lam = np.zeros((len(hyps), len(hyps)))
-    rates = {}
+    rates, evidence = {}, {}
     for i, h in enumerate(hyps):
         if h.effect == NONE:
             continue
@@ -257,6 +277,7 @@ def separation(scenario: dict, hyps: list[Hypothesis], draws: int = 3, seed: int
             row = np.array([own if j == i or hyps[j].effect == NONE else
                             lack_of_fit(f, plan.spaces(hyps[j].effect)) / plan.sigma2 for j in range(len(hyps))])
             lam[i] += row / draws
+            evidence[h.effect] = evidence.get(h.effect, 0.0) + (own + m - m * np.log(plan.rows)) / draws
             # named first: detected (ΔBIC under the noise models the screen takes, held-out gain) and
             # ahead of every rival
             p_detect = plan.detect_probability(h, values, f_raw, own, m)
@@ -264,7 +285,7 @@ def separation(scenario: dict, hyps: list[Hypothesis], draws: int = 3, seed: int
         lam[i, i] = 0.0
         rates[h.effect] = rate
     return Separation(effects, lam, rates, {h.effect: plan.amplitude_ci95(h) for h in hyps if h.effect != NONE},
-                      plan.rows)
+                      plan.rows, evidence)
 
 
 def _margin(true: str, rival: str) -> float:
