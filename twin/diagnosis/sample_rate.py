@@ -187,20 +187,25 @@ def restore_sample_rate(d: Diagnosis, m: Measurement, blocks: BlockAverager, k: 
     Returns
     -------
     SampleRateDiagnosis
-        Residual RMS, noise floor, RMS after each candidate and the residual by segment at the
-        sample rate.
+        Residual RMS, noise floor, RMS after each candidate and after the named ones, and the
+        residual by segment at the sample rate.
     """
     p, cal = d.problem, d.fit
     model = p.y - cal.residual
     sums = block_sums(m, blocks, p.applied, model)
     A_avg = p.avg(cal.X_full)
     y_avg = p.avg(p.y - cal.fixed_full)
-    for c in d.candidates:
-        X = c.columns_full
+    def rms_with(X: np.ndarray) -> float:  # per sample, with columns X refitted on the means
         beta = np.linalg.lstsq(np.column_stack([A_avg, p.avg(X)]), y_avg, rcond=None)[0]
-        c.rms_residual_g = sums.rms(cal.fixed_full + np.column_stack([cal.X_full, X]) @ beta)
+        return sums.rms(cal.fixed_full + np.column_stack([cal.X_full, X]) @ beta)
+
+    for c in d.candidates:
+        c.rms_residual_g = rms_with(c.columns_full)
     values = {f.name: getattr(d, f.name) for f in fields(Diagnosis) if f.init}
     values["noise_floor_g"] = sums.noise_floor_g
+    # the RMS with the named effects, per sample too (it was the RMS of the means)
+    values["rms_after_selected_g"] = (rms_with(np.column_stack([c.columns_full for c in d.selected]))
+                                      if d.selected else sums.rms(model))
     values["segments"] = residual_segments(p, cal.residual, d.segment_kind, sumsq=sums.sumsq(model), counts=sums.lengths)
     return SampleRateDiagnosis(**values, sample_rms_g=sums.rms(model), factor=k, full_samples=len(m),
                                full_rate_hz=m.sample_rate_hz)
