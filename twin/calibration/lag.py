@@ -216,16 +216,111 @@ def uniform_lag(u: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
     return z
 
 
+@dataclass(frozen=True, eq=False)
+class RunClock:
+    """The clock of one run, read once for every lag of it (:func:`clock_of`).
+
+    Attributes
+    ----------
+    step_s : float
+        The median step [s].
+    irregular : ndarray of int or None
+        Indices k of the steps t[k+1] − t[k] that are not ``step_s`` (gaps, a dropped sample),
+        empty on a uniform clock; None when there are more than one in :data:`MAX_IRREGULAR_SHARE`
+        of the steps (a jittered clock: every step its own coefficients).
+    """
+
+    step_s: float
+    irregular: np.ndarray | None
+
+
+MAX_IRREGULAR_SHARE = 1 / 100  # more irregular steps than this: the per-step recursion, not filter runs
+
+
+def clock_of(time_s: np.ndarray) -> RunClock:
+    """The step and the irregular steps of one run's increasing clock.
+
+    Parameters
+    ----------
+    time_s : (n,) ndarray
+        Sample times of one run [s].
+
+    Returns
+    -------
+    RunClock
+    """
+    dt = np.diff(time_s)
+    step = float(np.median(dt)) if dt.size else 0.0
+    irregular = np.flatnonzero(np.abs(dt - step) > 1e-9 * step)
+    return RunClock(step, irregular if irregular.size <= MAX_IRREGULAR_SHARE * max(dt.size, 1) else None)
+
+
+def _exact_step(y: float, u0: float, u1: float, dt_s: float, tau_s: float) -> float:
+    """One step of the first-order-hold lag over ``dt_s`` from state ``y`` (input u0 → u1), with
+    :func:`uniform_lag`'s coefficients (the series below 10⁻⁶, where 1 − e^{−h} cancels)."""
+    lh = dt_s / tau_s
+    i0 = dt_s * (1 - lh / 2) if lh < 1e-6 else -np.expm1(-lh) * tau_s
+    i1 = dt_s * (0.5 - lh / 6) if lh < 1e-6 else (1 - i0 / dt_s) * tau_s
+    return float(np.exp(-lh) * y + (i1 * u1 + (i0 - i1) * u0) / tau_s)
+
+
+def _uniform_from(u: np.ndarray, dt_s: float, tau_s: float, y0: float) -> np.ndarray:
+    """:func:`uniform_lag` of ``u`` started from the state ``y0`` at ``u[0]`` (not from equilibrium)."""
+    lam = 1.0 / tau_s
+    lh = lam * dt_s
+    p = np.exp(-lh)
+    i0 = dt_s * (1 - lh / 2) if lh < 1e-6 else -np.expm1(-lh) / lam
+    i1 = dt_s * (0.5 - lh / 6) if lh < 1e-6 else (1 - i0 / dt_s) / lam
+    b = [lam * i1, lam * (i0 - i1)]
+    out = np.empty_like(u)
+    out[0] = y0
+    if u.size > 1:  # the filter's state after sample 0, about u[0]: b1·v0 + p·(y0 − u0), v0 = 0
+        out[1:], _ = lfilter(b, [1.0, -p], u[1:] - u[0], zi=[p * (y0 - u[0])])
+        out[1:] += u[0]
+    return out
+
+
+def lag_on_clock(time_s: np.ndarray, u: np.ndarray, tau_s: float, clock: RunClock) -> np.ndarray:
+    """``lag(u, τ)`` of one run from equilibrium at its start, on its clock (:func:`clock_of`).
+
+    A uniform clock is one IIR filter (:func:`uniform_lag`); a clock uniform but for a few gaps
+    (a log whose excluded rows left holes, a dropped sample) is one filter per uniform stretch and
+    the exact step across each gap — no per-sample loop, so no compiled kernel to load; a jittered
+    clock is :func:`sim.drift.lowpass_at`, every step with its own coefficients. All three are the
+    same exact discretisation, so a firmware running the recursion on its measured time steps
+    reproduces any of them.
+
+    Parameters
+    ----------
+    time_s, u : (n,) ndarray
+        Sample times [s] and input of one run.
+    tau_s : float
+        Time constant [s] (≤ 0: no lag).
+    clock : RunClock
+
+    Returns
+    -------
+    (n,) ndarray
+    """
+    if tau_s <= 0 or u.size < 2:
+        return u.copy()
+    if clock.irregular is None:
+        return lowpass_at(time_s, u, tau_s)
+    if not clock.irregular.size:
+        return uniform_lag(u, clock.step_s, tau_s)
+    out = np.empty_like(u)
+    edges = [0, *(clock.irregular + 1).tolist(), u.size]
+    out[: edges[1]] = uniform_lag(u[: edges[1]], clock.step_s, tau_s) if edges[1] > 1 else u[:1]
+    for a, b in zip(edges[1:-1], edges[2:]):  # across the gap a−1 → a, then the stretch a:b
+        y = _exact_step(out[a - 1], u[a - 1], u[a], float(time_s[a] - time_s[a - 1]), tau_s)
+        out[a:b] = _uniform_from(u[a:b], clock.step_s, tau_s, y)
+    return out
+
+
 def _lag_segment(time_s: np.ndarray, temperature_c: np.ndarray, tau_s: float) -> np.ndarray:
     if tau_s <= 0 or time_s.size < 2:
         return temperature_c.copy()
-    dt = np.diff(time_s)
-    step = float(np.median(dt))
-    if np.all(np.abs(dt - step) <= 1e-9 * step):  # a uniform clock: one IIR filter
-        return uniform_lag(temperature_c, step, tau_s)
-    # a jittered or gappy clock: the same exact discretisation with each step's own coefficients,
-    # so a firmware running the recursion on its measured time steps reproduces it
-    return lowpass_at(time_s, temperature_c, tau_s)
+    return lag_on_clock(time_s, temperature_c, tau_s, clock_of(time_s))
 
 
 def lagged_c(log: ThermalLog, tau_s: float) -> np.ndarray:

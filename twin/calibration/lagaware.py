@@ -22,8 +22,9 @@ from __future__ import annotations
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
-from twin.calibration.lag import fit_inputs, lagged_c, validated_log
+from twin.calibration.lag import as_log, fit_inputs, lagged_c, validated_log
 from twin.calibration.lagfit import Z95, linear_fit, search
+from twin.calibration.lagcache import WholeLog
 from twin.calibration.lagprofile import Profile
 from twin.calibration.models import AXES, CompensatorBase, poly_text, to_mg_per_c
 from twin.errors import TwinError
@@ -83,7 +84,24 @@ class LagAwareCompensator(CompensatorBase):
         self.tau_bounds_s = tau_bounds_s
         self.n_grid = n_grid
 
-    def fit(self, X, y, mask=None):
+    def share_folds(self, X, y) -> WholeLog:
+        """The log reduced once for every fold's fit on rows of it (:class:`~twin.calibration.lagcache.WholeLog`),
+        given back to :meth:`fit` as ``shared``.
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+        y : (n, 3) array-like
+            Readings [g].
+
+        Returns
+        -------
+        WholeLog
+        """
+        return WholeLog(as_log(X), np.asarray(y, float))
+
+    def fit(self, X, y, mask=None, shared=None):
         """Fit on the rows of ``mask`` (default: every row with finite ``y``). Returns self.
 
         The lags run over every row of ``X``, so the thermal history before the training rows
@@ -97,6 +115,9 @@ class LagAwareCompensator(CompensatorBase):
             Readings [g].
         mask : array-like of bool or int, optional
             Rows to fit on.
+        shared : WholeLog, optional
+            :meth:`share_folds` of the same ``X`` and ``y``: the same search, without reducing
+            the whole log again (its sums are taken about another level: equal to rounding).
 
         Returns
         -------
@@ -107,8 +128,10 @@ class LagAwareCompensator(CompensatorBase):
             raise TwinError(f"share must be auto|shared|per_axis and rate_term auto|True|False; "
                             f"got {self.share!r}, {self.rate_term!r}")
         log, y, keep = fit_inputs(self, X, y, mask)
-        profile = Profile(log, y, keep, self.degree, self.reference_c)
-        step = float(np.median(np.diff(log.time_s)))
+        if shared is not None and shared.rows != log.time_s.size:
+            raise TwinError(f"shared is of a log of {shared.rows} rows; X has {log.time_s.size}")
+        profile = Profile(log, y, keep, self.degree, self.reference_c, whole_log=shared)
+        step = shared.step_s if shared is not None else float(np.median(np.diff(log.time_s)))
         self.selected_, self.candidates_ = search(profile, tuple(self.tau_bounds_s), 2 * step, self.n_grid,
                                                   self.share, self.rate_term)
         self.shared_ = self.selected_.name.startswith("shared")
@@ -161,17 +184,37 @@ class LagAwareCompensator(CompensatorBase):
         (n, 3) ndarray
             Modelled reading [g].
         """
+        return self.predict_rows(X, slice(None))
+
+    def predict_rows(self, X, rows) -> np.ndarray:
+        """:meth:`predict` on ``rows`` only: the lags still run over every row of ``X`` (the
+        thermal state before a row is part of its prediction), the polynomial only on ``rows``
+        (a held-out branch of a long log need not pay for the training rows).
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+            ``[time_s, temperature_c]`` [s, °C], optionally with a run id.
+        rows : slice or (m,) int array
+            Rows to predict.
+
+        Returns
+        -------
+        (m, 3) ndarray
+            Modelled reading [g] of ``rows``.
+        """
         log = validated_log(self, X, reset=False)
-        out = np.empty((log.time_s.size, 3))
+        T = log.temperature_c[rows]
+        out = np.empty((T.size, 3))
         lags: dict[float, np.ndarray] = {}
         for a in range(3):
             for tau in (self.tau_die_s_[a], self.tau_rate_s_[a]):
                 if np.isfinite(tau) and tau not in lags:
-                    lags[tau] = lagged_c(log, tau)
+                    lags[tau] = lagged_c(log, tau)[rows]
             dT = lags[self.tau_die_s_[a]] - self.reference_c
             out[:, a] = np.polyval(self.coef_mg_[a, ::-1], dT)
             if self.rate_used_[a]:
-                out[:, a] += self.rate_mg_per_c_[a] * (log.temperature_c - lags[self.tau_rate_s_[a]])
+                out[:, a] += self.rate_mg_per_c_[a] * (T - lags[self.tau_rate_s_[a]])
         return out * 1e-3
 
     def equation(self) -> str:

@@ -1,14 +1,14 @@
 """The lag-aware model's training SSE as a function of its time constants, searched on block means.
 
 For given time constants (τ_die, τ_rate) the model is linear, so a trial costs two lags of the
-temperature and one small least squares. On a log sampled faster than twice 1/:data:`SEARCH_STEP_S`
-(a tester at 100 Hz, a flight controller's IMU at 10 Hz) the trials run on means of
-:data:`SEARCH_STEP_S` seconds inside each run: the first-order-hold lag of the means is the lag of
-the piecewise-linear temperature through them, the block mean of a reading is the same sum, and
-the full-rate SSE is the means' weighted SSE plus the scatter of the readings inside the blocks
-(constant in τ). What the means leave out is the design's own variation inside a block: the
-temperature's curvature over one second of a ramp, and the thermometer's noise, which enters the
-rate term T − lag(T, τ_rate) unfiltered at full rate. On a noise-free thermometer the two
+temperature and one small least squares. On a log sampled faster than twice 1/``SEARCH_STEP_S``
+(:mod:`twin.calibration.lagcache`; a tester at 100 Hz, a flight controller's IMU at 10 Hz) the
+trials run on means of ``SEARCH_STEP_S`` seconds inside each run: the first-order-hold lag of the
+means is the lag of the piecewise-linear temperature through them, the block mean of a reading is
+the same sum, and the full-rate SSE is the means' weighted SSE plus the scatter of the readings
+inside the blocks (constant in τ). What the means leave out is the design's own variation inside
+a block: the temperature's curvature over one second of a ramp, and the thermometer's noise,
+which enters the rate term T − lag(T, τ_rate) unfiltered at full rate. On a noise-free thermometer the two
 searches agree to 1 ms in τ_rate (a 6-h tester log at 100 Hz); with 0.01 °C of thermometer noise the
 full-rate optimum moves to a longer τ_rate and a 3 % smaller rate amplitude (their product, the
 part the data fix, stays within 0.2 %): the noise's share of the SSE, n·b²·σ_T², shrinks as b
@@ -18,12 +18,11 @@ all training rows enter.
 The candidate structures are scored (BIC) with this SSE. The effective sample size, the final
 amplitudes and the residual's power and autocorrelation (the σ of every interval) are computed on
 every full-rate training row; the curvature of the SSE in all parameters (JᵀJ) on the search's
-rows, where each column is its block mean to second order.
-``TDE_TWIN_FULL_RATE=1`` searches on the full-rate rows, as before.
+rows, where each column is its block mean to second order (``TDE_TWIN_FULL_RATE=1``: full rate).
 
 Every solve uses the normal equations of the (few) design columns, equilibrated; residuals are
-computed directly, never from the normal equations. Lags are cached within a byte budget
-(:data:`LAG_CACHE_BYTES`), so no log length holds more than that in lags.
+computed directly. Lags are cached within a byte budget (``LAG_CACHE_BYTES``); the folds of one
+log share its block means, their lags and sums (:class:`~twin.calibration.lagcache.WholeLog`).
 """
 
 from __future__ import annotations
@@ -32,16 +31,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.drift import lowpass_at
-from twin.calibration.lag import ThermalLog, uniform_lag
+from twin.calibration.lag import ThermalLog
+from twin.calibration.lagcache import LagCache, WholeLog, reading_block_sums, search_factor
 from twin.calibration.models import poly_columns
 from twin.calibration.polygram import solve_gram
-from twin.estimation.decimate import decimation_factor
 from twin.estimation.noise import BlockAverager
 
-SEARCH_STEP_S = 1.0  # the time constants are searched on 1-s means of faster logs
-LAG_CACHE_BYTES = 64 * 2**20  # lagged temperatures kept per cache (search series and full rate each)
-MIN_CACHED_LAGS = 4  # the current trial's two lags and the refinement's neighbours, at any length
+MAX_ROW_LAGS = 32  # the search's lags kept on its rows, per fit (the grid's 25 and recent refinements)
 MIN_SEARCH_BLOCKS = 200  # fewer whole training blocks than this: the search runs on the full-rate rows
 FULL_CHUNK = 1 << 16  # full-rate training rows per pass step: a design of this many rows stays in cache
 
@@ -63,7 +59,6 @@ class FullStats:
     first, last : (3,) ndarray
         The first and last residual.
     n : int
-        Training rows.
     """
 
     sse: np.ndarray
@@ -72,67 +67,6 @@ class FullStats:
     first: np.ndarray
     last: np.ndarray
     n: int
-
-
-def search_factor(log: ThermalLog) -> int:
-    """Samples per search mean: 1 for logs at up to twice 1/:data:`SEARCH_STEP_S`, else the rate
-    over that (100 at 100 Hz); 1 whenever ``TDE_TWIN_FULL_RATE`` is set.
-
-    Parameters
-    ----------
-    log : ThermalLog
-        The whole log.
-
-    Returns
-    -------
-    int
-        Samples per mean (≥ 1).
-    """
-    dt = np.diff(log.time_s)
-    dt = dt[dt > 0]
-    if not dt.size:
-        return 1
-    return decimation_factor(1.0 / float(np.median(dt)), 1.0 / SEARCH_STEP_S)
-
-
-class _LagCache:
-    """Lagged temperatures of one series by τ, least recently used dropped beyond the byte budget.
-
-    Each run's clock is examined once (the step, whether it is uniform), then every τ is one filter
-    per run: :func:`twin.calibration.lag.lagged_c` without re-reading the clock per trial.
-    """
-
-    def __init__(self, log: ThermalLog):
-        self.log = log
-        self.size = max(MIN_CACHED_LAGS, LAG_CACHE_BYTES // max(8 * log.time_s.size, 1))
-        self.lags: dict[float, np.ndarray] = {}
-        self.runs = []
-        for seg in log.segments():
-            t = log.time_s[seg]
-            dt = np.diff(t)
-            step = float(np.median(dt)) if dt.size else 0.0
-            self.runs.append((seg, step, bool(dt.size) and bool(np.all(np.abs(dt - step) <= 1e-9 * step))))
-
-    def _lag(self, tau_s: float) -> np.ndarray:
-        T, out = self.log.temperature_c, np.empty_like(self.log.temperature_c)
-        for seg, step, uniform in self.runs:  # as lag._lag_segment, with the clock read once
-            if tau_s <= 0 or seg.stop - seg.start < 2:
-                out[seg] = T[seg]
-            elif uniform:
-                out[seg] = uniform_lag(T[seg], step, tau_s)
-            else:
-                out[seg] = lowpass_at(self.log.time_s[seg], T[seg], tau_s)
-        return out
-
-    def __call__(self, tau_s: float) -> np.ndarray:
-        key = round(float(tau_s), 9)
-        if key in self.lags:
-            self.lags[key] = self.lags.pop(key)  # most recent last
-        else:
-            if len(self.lags) >= self.size:  # refinements revisit recent values: drop the oldest
-                self.lags.pop(next(iter(self.lags)))
-            self.lags[key] = self._lag(key)
-        return self.lags[key]
 
 
 class Profile:
@@ -156,41 +90,48 @@ class Profile:
         Expansion point [°C].
     factor : int, optional
         Samples per search mean (default :func:`search_factor`).
+    whole_log : WholeLog, optional
+        The same log reduced before (its ``factor`` is used).
     """
 
     def __init__(self, log: ThermalLog, y: np.ndarray, keep: np.ndarray, degree: int, reference_c: float,
-                 factor: int | None = None):
+                 factor: int | None = None, whole_log: WholeLog | None = None):
         self.log, self.keep, self._y = log, keep, y
         self.n = int(keep.sum())
         self.degree, self.reference_c = degree, reference_c
-        self.factor = search_factor(log) if factor is None else max(1, int(factor))
-        self._full = _LagCache(log)
+        # full-rate lags are each fit's own (its τ's): a cache shared by the folds would only hold memory
+        self._full = LagCache(log, runs=None if whole_log is None else whole_log.runs)
+        if whole_log is not None:  # the search's blocks, lags and sums of an earlier fit's log
+            self.factor = whole_log.factor
+        else:
+            self.factor = search_factor(log) if factor is None else max(1, int(factor))
         edges = np.diff(np.r_[0, keep.astype(np.int8), 0])
         self._spans = list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
-        if self.factor == 1 or not self._reduce(y, keep):
+        if self.factor == 1 or not self._reduce(y, keep, whole_log):
             self.factor = 1
             self._search, self._rows, self._yb, self._sw, self._within = self._full, keep, y[keep], None, 0.0
         self._yw = self._yb if self._sw is None else self._yb * self._sw[:, None]  # (rows, 3) and (3, rows)
         self._ywt = np.ascontiguousarray(self._yw.T)
+        self._sse_memo: dict = {}  # (τ_die, τ_rate or None) → SSE: a few hundred triples per fit
+        self._at_rows, self._T_rows = {}, None  # the search's lags and temperatures on its rows
 
-    def _reduce(self, y: np.ndarray, keep: np.ndarray) -> bool:
-        """Block means of the log (all rows: the lags run over them) and of the training readings;
-        False (search on full rate) when fewer than :data:`MIN_SEARCH_BLOCKS` blocks are all training rows."""
-        blocks = BlockAverager.build(self.log.run, self.factor)
+    def _reduce(self, y: np.ndarray, keep: np.ndarray, whole_log: WholeLog | None = None) -> bool:
+        """Block means of the log (all rows: the lags run over them) and of the training readings
+        (``whole_log``'s, selected); False (search on full rate) when fewer than
+        :data:`MIN_SEARCH_BLOCKS` blocks are all training rows."""
+        blocks = BlockAverager.build(self.log.run, self.factor) if whole_log is None else whole_log.blocks
         whole = np.add.reduceat(keep.astype(np.int64), blocks.starts) == blocks.lengths  # every row trains
         if whole.sum() < MIN_SEARCH_BLOCKS:
             return False
-        log = self.log
-        self._search = _LagCache(ThermalLog(blocks(log.time_s), blocks(log.temperature_c), log.run[blocks.starts]))
-        sums, squares, level = np.empty((int(whole.sum()), 3)), np.empty((int(whole.sum()), 3)), np.empty(3)
-        for k in range(3):  # axis by axis: two full-length temporaries, not six
-            level[k] = y[keep, k].mean()  # about the level: the sums of squares below keep their digits
-            yc = y[:, k] - level[k]
-            yc[~keep] = 0.0  # NaN readings are off the training rows: out of the sums
-            sums[:, k] = np.add.reduceat(yc, blocks.starts)[whole]
-            yc *= yc
-            squares[:, k] = np.add.reduceat(yc, blocks.starts)[whole]
-            del yc
+        if whole_log is not None:  # a block whose rows all train has the sums of all its rows
+            self._search, level = whole_log.search, whole_log.level
+            sums, squares = whole_log.sums[whole], whole_log.squares[whole]
+        else:
+            log = self.log
+            self._search = LagCache(ThermalLog(blocks(log.time_s), blocks(log.temperature_c), log.run[blocks.starts]))
+            level = np.array([y[keep, k].mean() for k in range(3)])
+            sums, squares = reading_block_sums(y, keep, blocks.starts, level)
+            sums, squares = sums[whole], squares[whole]
         n = blocks.lengths[whole].astype(float)[:, None]
         self._rows, self._yb, self._sw = whole, sums / n + level, np.sqrt(n[:, 0])
         # inside each block Σ(y − ȳ)² = Σy² − (Σy)²/n: the part of the full-rate SSE no τ can change
@@ -211,6 +152,23 @@ class Profile:
             Lagged temperature [°C].
         """
         return self._full(tau_s)
+
+    def _search_columns(self, tau_die_s: float, tau_rate_s: float | None) -> np.ndarray:
+        """:meth:`_columns` of the search's rows, their lags kept by τ (the grid pairs each τ_die with
+        every τ_rate: a lag is selected once, not per pair) and their temperatures once."""
+        if self._T_rows is None:
+            self._T_rows = self._search.log.temperature_c[self._rows]
+        rated = tau_rate_s is not None and np.isfinite(tau_rate_s)
+        return self._stack(self._lag_rows(tau_die_s), self._T_rows if rated else None,
+                           self._lag_rows(tau_rate_s) if rated else None)
+
+    def _lag_rows(self, tau_s: float) -> np.ndarray:
+        key = round(float(tau_s), 9)
+        if key not in self._at_rows:
+            if len(self._at_rows) >= MAX_ROW_LAGS:
+                self._at_rows.pop(next(iter(self._at_rows)))
+            self._at_rows[key] = self._search(key)[self._rows]
+        return self._at_rows[key]
 
     def _columns(self, lag, temperature_c, tau_die_s, tau_rate_s, rows) -> np.ndarray:
         rated = tau_rate_s is not None and np.isfinite(tau_rate_s)
@@ -262,13 +220,17 @@ class Profile:
         (3,) ndarray
             SSE per axis [g²].
         """
-        Ft = self._columns(self._search, self._search.log.temperature_c, tau_die_s, tau_rate_s, self._rows)
-        if self._sw is not None:
-            Ft *= self._sw
-        r = self._ywt - solve_gram(Ft @ Ft.T, Ft @ self._yw).T @ Ft
-        sse = np.einsum("ij,ij->i", r, r)
-        # floored: an exact fit (a noise-free log) must not send log(SSE) to -inf in the scores
-        return np.maximum(sse + self._within, np.finfo(float).tiny * self.n)
+        # the refinements start from grid points and end by re-scoring both ends: each SSE once
+        key = (float(tau_die_s), float(tau_rate_s) if tau_rate_s is not None and np.isfinite(tau_rate_s) else None)
+        if key not in self._sse_memo:
+            Ft = self._search_columns(tau_die_s, tau_rate_s)
+            if self._sw is not None:
+                Ft *= self._sw
+            r = self._ywt - solve_gram(Ft @ Ft.T, Ft @ self._yw).T @ Ft
+            sse = np.einsum("ij,ij->i", r, r)
+            # floored: an exact fit (a noise-free log) must not send log(SSE) to -inf in the scores
+            self._sse_memo[key] = np.maximum(sse + self._within, np.finfo(float).tiny * self.n)
+        return self._sse_memo[key].copy()
 
     def _chunks(self):
         """(start, stop) of the training rows in order, contiguous, at most :data:`FULL_CHUNK` each."""

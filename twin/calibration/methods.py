@@ -26,6 +26,8 @@ from twin.firmware import (
     fit_ardupilot_gyro,
     fit_px4,
     fit_px4_gyro,
+    median_filter,
+    median_filter_rows,
     parse_ardupilot_parm,
     parse_px4_params,
     px4_vehicle_offsets,
@@ -33,7 +35,6 @@ from twin.firmware import (
 
 # the firmwares work in SI units: the accelerometer methods take g and hand the fit m/s²
 UNIT = {"accel": (G0_M_S2, "m/s²"), "gyro": (1.0, "rad/s")}
-LEVEL_CHUNK = 1 << 16  # rows per step of the training level's pass
 
 
 class _FirmwareMethod(CompensatorBase):
@@ -57,20 +58,28 @@ class _FirmwareMethod(CompensatorBase):
     def _fit_cal(self, time_s, temperature_c, samples_si):  # pragma: no cover - subclasses
         raise NotImplementedError
 
-    def fit(self, X, y, mask=None):
-        """Fit on the rows of ``mask`` (a contiguous branch, as the tools expect). Returns self."""
+    def share_folds(self, X, y):
+        """What every fold's fit on rows of the same ``X``, ``y`` can share (None: nothing), given
+        back to :meth:`fit` as ``shared``; see :func:`twin.calibration.validate.validate`."""
+        return None
+
+    def _filtered(self, shared, y, keep):
+        raise TypeError(f"{type(self).__name__} shares nothing between fits; shared must be None")
+
+    def fit(self, X, y, mask=None, shared=None):
+        """Fit on the rows of ``mask`` (a contiguous branch, as the tools expect). Returns self.
+
+        ``shared`` is :meth:`share_folds` of the same ``X`` and ``y``: the same fit, sooner."""
         log, y, keep = fit_inputs(self, X, y, mask)
         scale = UNIT[self.sensor][0]
         rows = slice(None) if keep.all() else keep  # every row: the arrays themselves, no copies
         samples = y[rows] * scale
         temperature_c = log.temperature_c[rows]
-        self.cal_ = self._fit_cal(log.time_s[rows], temperature_c, samples)
-        del samples
-        readings, total = y[rows], np.zeros(y.shape[1])
-        for a in range(0, temperature_c.size, LEVEL_CHUNK):  # the offsets a chunk at a time, in cache
-            b = a + LEVEL_CHUNK
-            total += (readings[a:b] - self.cal_.offset(temperature_c[a:b]) / scale).sum(axis=0)
-        self.level_g_ = total / temperature_c.size
+        extra = {} if shared is None else {"filtered": self._filtered(shared, y, keep)}
+        self.cal_ = self._fit_cal(log.time_s[rows], temperature_c, samples, **extra)
+        # mean(reading − offset(T)) = mean(reading) − mean(offset(T)), in SI units then back: the
+        # offset's mean from the powers of T (its polynomial), not from an offset per row
+        self.level_g_ = (samples.mean(axis=0) - self.cal_.polynomial.mean_offset(temperature_c)) / scale
         return self
 
     def offset(self, X) -> np.ndarray:
@@ -110,8 +119,34 @@ class Px4Method(_FirmwareMethod):
         self.instance = instance
         self.device_id = device_id
 
-    def _fit_cal(self, time_s, temperature_c, accel_m_s2):
-        return fit_px4(temperature_c, accel_m_s2, device_id=self.device_id, instance=self.instance)
+    def _fit_cal(self, time_s, temperature_c, accel_m_s2, filtered=None):
+        return fit_px4(temperature_c, accel_m_s2, device_id=self.device_id, instance=self.instance,
+                       filtered=filtered)
+
+    def share_folds(self, X, y):
+        """The median filter of every row of ``y`` in SI units: each fold's filter of its
+        training rows is then read from it, and filtered again only around its gaps
+        (:func:`twin.firmware.median_filter_rows`): the same values, for a gather per fold.
+
+        Parameters
+        ----------
+        X : array-like, (n, 2) or (n, 3)
+        y : (n, 3) array-like
+            Readings [g].
+
+        Returns
+        -------
+        (n, 3) ndarray or None
+            None when ``y`` has rows with NaN (each fold then filters its own rows).
+        """
+        y = np.asarray(y, float)
+        if y.ndim != 2 or y.shape[1] != 3 or not np.all(np.isfinite(y)):
+            return None
+        scale = UNIT[self.sensor][0]
+        return np.column_stack([median_filter(y[:, k] * scale) for k in range(3)])
+
+    def _filtered(self, shared, y, keep):
+        return median_filter_rows(shared, y, np.flatnonzero(keep), scale=UNIT[self.sensor][0])
 
 
 class ArduPilotMethod(_FirmwareMethod):
@@ -135,8 +170,9 @@ class Px4GyroMethod(Px4Method):
 
     sensor = "gyro"
 
-    def _fit_cal(self, time_s, temperature_c, gyro_rad_s):
-        return fit_px4_gyro(temperature_c, gyro_rad_s, device_id=self.device_id, instance=self.instance)
+    def _fit_cal(self, time_s, temperature_c, gyro_rad_s, filtered=None):
+        return fit_px4_gyro(temperature_c, gyro_rad_s, device_id=self.device_id, instance=self.instance,
+                            filtered=filtered)
 
 
 class ArduPilotGyroMethod(ArduPilotMethod):
@@ -226,9 +262,11 @@ class AsTheVehicleApplies(CompensatorBase):
         AsTheVehicleApplies
             ``self``, fitted.
         """
-        fit_inputs(self, X, y, mask)
         if type(inner) is not type(self.method) or inner.get_params() != self.method.get_params():
             raise TypeError(f"fit_from needs a fitted {type(self.method).__name__} with the parameters of method")
+        check_is_fitted(inner)
+        # inner checked these X, y and mask when it was fitted on them: not read again (a pass per fold)
+        self.n_features_in_ = inner.n_features_in_
         return self._load(inner)
 
     def _load(self, inner):

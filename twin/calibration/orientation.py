@@ -159,7 +159,7 @@ def segments_of(quality: LogQuality, time_s, temperature_c, accel_g, min_duratio
     t, T, a = np.asarray(time_s, float), np.asarray(temperature_c, float), np.asarray(accel_g, float)
     out = []
     for stretch in quality.static_stretches():
-        for p0, p1 in _cut_by_temperature(T, stretch.start, stretch.stop, max_span_c):
+        for p0, p1 in cut_by_temperature(T, stretch.start, stretch.stop, max_span_c):
             if p1 - p0 >= 2 and t[p1 - 1] - t[p0] >= min_duration_s:
                 seg = a[p0:p1]
                 out.append(StaticSegment(int(p0), int(p1), tuple(seg.mean(0)), tuple(seg.std(0) * 1e3),
@@ -167,14 +167,46 @@ def segments_of(quality: LogQuality, time_s, temperature_c, accel_g, min_duratio
     return out
 
 
-def _cut_by_temperature(T: np.ndarray, s0: int, s1: int, span_c: float) -> list[tuple[int, int]]:
+FIRST_LOOK = 1024  # rows the search for a piece's end reads first; it doubles while none is found
+
+
+def cut_by_temperature(T: np.ndarray, s0: int, s1: int, span_c: float) -> list[tuple[int, int]]:
+    """Rows ``s0:s1`` cut into pieces, each ending at the first row more than ``span_c`` from the
+    temperature of its first row.
+
+    Parameters
+    ----------
+    T : (n,) ndarray
+        Temperatures [°C].
+    s0, s1 : int
+        The stretch (``s1`` exclusive).
+    span_c : float
+        Widest temperature span of a piece [°C].
+
+    Returns
+    -------
+    list of (int, int)
+        (start, stop) of each piece, in order, covering ``s0:s1``.
+    """
     pieces, start = [], s0
     while start < s1:
-        drift = np.abs(T[start:s1] - T[start])
-        end = start + int(np.argmax(drift > span_c)) if np.any(drift > span_c) else s1
+        end = _first_beyond(T, start, s1, span_c)
         pieces.append((start, max(end, start + 1)))
         start = max(end, start + 1)
     return pieces
+
+
+def _first_beyond(T: np.ndarray, start: int, stop: int, span_c: float) -> int:
+    """The first row in ``start:stop`` more than ``span_c`` from ``T[start]`` (``stop`` if none),
+    read in windows doubling from :data:`FIRST_LOOK` rows: a piece costs its own length, not the
+    rest of the stretch (which made a long ramp quadratic in its length: one piece per 2 °C)."""
+    pos, width = start, FIRST_LOOK
+    while pos < stop:
+        hit = np.abs(T[pos:min(pos + width, stop)] - T[start]) > span_c
+        if hit.any():
+            return pos + int(np.argmax(hit))
+        pos, width = pos + width, 2 * width
+    return stop
 
 
 def cluster_orientations(segments: list[StaticSegment], tol_deg: float = 10.0) -> OrientationReport:

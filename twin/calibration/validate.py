@@ -163,7 +163,10 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
     ----------
     models : dict of name → estimator
         Unfitted scikit-learn estimators (``sklearn.base.clone``-able) with ``fit(X, y, mask)`` and
-        ``predict(X)``.
+        ``predict(X)``. One with ``share_folds(X, y)`` gets its result, computed once, as
+        ``fit(..., shared=…)`` in every fold (what the folds of one log have in common: the cost
+        of a fold is then what differs between folds). One with ``predict_rows(X, rows)`` (a
+        thermal state over every row) is evaluated on the held-out rows only.
     time_s, temperature_c : (n,) arrays
     accel_g : (n, 3) array
     protocol : Protocol
@@ -182,6 +185,7 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
     if y.shape != (X.shape[0], 3):
         raise TwinError(f"accel_g must be (n, 3) with n = {X.shape[0]}; got {y.shape}")
     scores, floors, times, skipped = [], [], {}, []
+    shared = _Shared(X, y) if len(protocol.folds) > 1 else None
     for fold in protocol.folds:
         mask = np.zeros(X.shape[0], bool)
         mask[fold.train] = True
@@ -198,7 +202,8 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
                 if inner is not None and hasattr(est, "fit_from"):  # a wrapper of a method fitted just before
                     fitted = clone(est).fit_from(inner, X, y, mask=mask)
                 else:
-                    fitted = this_fold[id(est)] = clone(est).fit(X, y, mask=mask)
+                    given = shared.of(est) if shared is not None else {}
+                    fitted = this_fold[id(est)] = clone(est).fit(X, y, mask=mask, **given)
             except CalibrationRangeError as exc:  # e.g. ArduPilot's 10 °C on a fold's narrower training rows
                 skipped.append(f"note ({fold.name}): {name} not fitted on this fold: {exc}")
                 if on_fit:
@@ -229,14 +234,37 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
     return ValidationResult(tuple(scores), tuple(float(v) for v in floor), best, times, notes)
 
 
+class _Shared:
+    """What an estimator's fits on the folds of one log share (its ``share_folds(X, y)``, computed
+    at its first fold): a fold's fit then costs what differs between folds, not the whole log again."""
+
+    def __init__(self, X: np.ndarray, y: np.ndarray):
+        self.X, self.y, self.found = X, y, {}
+
+    def of(self, est) -> dict:
+        """Keywords for ``est.fit``: ``{"shared": …}``, or none when it shares nothing."""
+        if not hasattr(est, "share_folds"):
+            return {}
+        if id(est) not in self.found:
+            self.found[id(est)] = est.share_folds(self.X, self.y)
+        given = self.found[id(est)]
+        return {} if given is None else {"shared": given}
+
+
 def _residual(fitted, X: np.ndarray, y: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """``y − prediction`` on the held-out ``rows`` (sorted; the other rows' values undefined): a
     model predicting each row from its own temperature predicts only those; one with a thermal
     state runs over the whole log."""
-    if not getattr(fitted, "row_by_row", False) or rows.size >= X.shape[0] or rows.size < MIN_ROWS:
+    if rows.size >= X.shape[0] or rows.size < MIN_ROWS:
+        return y - fitted.predict(X)
+    if getattr(fitted, "row_by_row", False):
+        predicted = fitted.predict(X[rows])
+    elif hasattr(fitted, "predict_rows"):  # a thermal state over every row, evaluated on these only
+        predicted = fitted.predict_rows(X, rows)
+    else:
         return y - fitted.predict(X)
     resid = np.empty_like(y)  # pages of rows never written are never touched
-    resid[rows] = y[rows] - fitted.predict(X[rows])
+    resid[rows] = y[rows] - predicted
     return resid
 
 

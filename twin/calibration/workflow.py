@@ -38,6 +38,7 @@ from twin.calibration.plausibility import (
 )
 from twin.calibration.progress import FitProgress
 from twin.calibration.recommend import Recommendation, recommend
+from twin.calibration.runtime import calibration_runtime
 from twin.calibration.validate import ValidationResult, validate
 from twin.errors import TwinError
 from twin.firmware import CalibrationRangeError
@@ -398,6 +399,15 @@ def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[li
     """
     done, skipped = [], {}
     compared = options.pop("compared", None) or {}
+    with calibration_runtime():  # BLAS on one thread, freed arrays reused (twin.calibration.runtime)
+        _calibrate_each(per_instance, options, compared, done, skipped)
+    if not done:
+        raise CalibrationInputError("no IMU can be calibrated: " + "; ".join(skipped.values()))
+    return done, skipped
+
+
+def _calibrate_each(per_instance, options, compared, done, skipped) -> None:
+    """The loop of :func:`calibrate_imus`: results into ``done``, refusals into ``skipped``."""
     for instance, logs in sorted(per_instance.items()):
         extra = dict(options.get("extra_methods") or {})
         if instance in compared:
@@ -410,6 +420,3 @@ def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[li
                 raise
             name = Path(logs[0].source).name
             skipped[instance] = str(exc) if name and name in str(exc) else f"{name} instance {instance}: {exc}"
-    if not done:
-        raise CalibrationInputError("no IMU can be calibrated: " + "; ".join(skipped.values()))
-    return done, skipped

@@ -72,6 +72,7 @@ from twin.firmware.px4 import (
                                      fit_px4,
                                      fit_px4_gyro,
                                      median_filter,
+                                     median_filter_rows,
                                      resample_by_temperature,
 )
 from twin.firmware.px4_param_file import (
@@ -100,7 +101,8 @@ __all__ = [
     "check_device_id_px4", "check_float32", "check_px4_cal", "checked_ardupilot_parm_text",
     "checked_px4_params_text", "die_temperature_lag", "firmware_correct_ardupilot", "firmware_offset_px4",
     "fit_ardupilot", "fit_ardupilot_gyro", "fit_polynomial_heldout", "fit_px4", "fit_px4_gyro",
-    "interleaved_folds", "lag_alpha", "lag_aware_c_header", "median_filter", "parse_ardupilot_parm",
+    "interleaved_folds", "lag_alpha", "lag_aware_c_header", "median_filter", "median_filter_rows",
+    "parse_ardupilot_parm",
     "parse_px4_params", "px4_cal_from_params", "px4_cal_from_polynomial", "px4_params_text",
     "px4_republish_lag_c", "px4_vehicle_offsets", "read_ardupilot_parm", "read_json_cal", "read_px4_params",
     "resample_by_temperature", "verify_ardupilot_parm", "verify_px4_params", "write_ardupilot_parm",

@@ -42,6 +42,7 @@ from twin.firmware.common import (
     as_temperature,
     check_instance,
 )
+from twin.firmware.lstsq import polyfit_rows
 
 TEMP_REF_C = 35.0  # tempcal_IMU.py TEMP_REF and AP_InertialSensor_tempcal.cpp TEMP_REFERENCE
 SCALE_FACTOR = 1.0e6  # tempcal_IMU.py / AP_InertialSensor_tempcal.cpp SCALE_FACTOR
@@ -264,11 +265,10 @@ def _filtered_cubic(temperature_c, samples, name: str, time_s, filter_width_s: i
             f"ArduPilot temperature calibration needs at least {TEMP_RANGE_MIN_C:g} °C of range "
             f"(TEMP_RANGE_MIN in AP_InertialSensor_tempcal.cpp); the data span {tmax - tmin:.1f} °C "
             f"({tmin:.1f} to {tmax:.1f} °C)")
-    terms = []
-    for axis in range(3):
-        p = np.polyfit(t - TEMP_REF_C, a[:, axis], 3)  # p[3] (constant) is not written, as in the script
-        terms.append((float(p[2]), float(p[1]), float(p[0])))
-    return tmin, tmax, tuple(terms)
+    # the script's three polyfits share their abscissa: one least squares with three right-hand
+    # sides, reduced a chunk of rows at a time (twin.firmware.lstsq: np.polyfit's answer to rounding)
+    p = polyfit_rows(t - TEMP_REF_C, a[:, :3], 3)  # (4, 3); p[3] (constant) is not written, as in the script
+    return tmin, tmax, tuple((float(p[2, k]), float(p[1, k]), float(p[0, k])) for k in range(3))
 
 
 def fit_ardupilot(temperature_c, accel_m_s2, *, time_s=None, cal_temp_c: float | None = None,

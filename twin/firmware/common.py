@@ -99,9 +99,32 @@ class ClampedPolynomial:
         dt = np.clip(t, self.tmin_c, self.tmax_c) - self.tref_c
         c = self.coefficient_array
         out = np.zeros(dt.shape + (c.shape[0],))
-        for k in range(c.shape[1] - 1, -1, -1):  # Horner, highest power first
-            out = out * dt[..., None] + c[:, k]
+        for k in range(c.shape[1] - 1, -1, -1):  # Horner, highest power first, in place (same operations)
+            out *= dt[..., None]
+            out += c[:, k]
         return out
+
+    def mean_offset(self, temperature_c) -> np.ndarray:
+        """The mean of :meth:`offset` over the samples, per axis: Σ_k c_k·mean((clip(T) − tref)^k),
+        a pass per power of one column instead of the (n, n_axes) offsets (equal to rounding).
+
+        Parameters
+        ----------
+        temperature_c : array_like
+            Temperatures [°C], at least one.
+
+        Returns
+        -------
+        ndarray
+            Mean offset per axis [offset unit].
+        """
+        dt = np.clip(np.asarray(temperature_c, dtype=float), self.tmin_c, self.tmax_c) - self.tref_c
+        c = self.coefficient_array
+        moments, power = np.ones(c.shape[1]), np.ones_like(dt)
+        for k in range(1, c.shape[1]):
+            power *= dt
+            moments[k] = power.mean()
+        return c @ moments
 
 
 def as_temperature(temperature_c, name: str = "temperature_c") -> np.ndarray:

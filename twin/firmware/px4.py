@@ -215,6 +215,57 @@ def median_filter(values: np.ndarray) -> np.ndarray:
     return medfilt(np.asarray(values, dtype=float), MEDIAN_KERNEL)
 
 
+def median_filter_rows(filtered_all: np.ndarray, values_all: np.ndarray, index: np.ndarray,
+                       scale: float = 1.0) -> np.ndarray:
+    """:func:`median_filter` of ``values_all[index] * scale`` from :func:`median_filter` of
+    ``values_all * scale``.
+
+    A median is a selection, so a row whose 31-sample window in the selected rows is the same 31
+    rows of the whole log has the same filtered value: it is read from ``filtered_all``. Only the
+    rows within 15 of a jump in ``index`` (a held-out branch or a dwell left out) or of either end
+    (the zero padding) are filtered again, from their own neighbourhood. The result is identical
+    to filtering the selected rows; the cost is a gather, not a filter, per selection.
+
+    Parameters
+    ----------
+    filtered_all : (n,) or (n, k) ndarray
+        ``median_filter`` of each column of ``values_all * scale``.
+    values_all : (n,) or (n, k) ndarray
+        The whole log, in any unit.
+    index : (m,) ndarray of int
+        Rows selected, increasing.
+    scale : float
+        To the unit of ``filtered_all`` (e.g. g → m/s²): applied to the rows filtered again only.
+
+    Returns
+    -------
+    (m,) or (m, k) ndarray
+        ``median_filter`` of each column of ``values_all[index] * scale``.
+    """
+    half = MEDIAN_KERNEL // 2
+    index = np.asarray(index)
+    out = filtered_all[index]
+    same = np.zeros(index.size, bool)  # the window of row j holds the rows index[j] − 15 … + 15
+    if index.size > 2 * half:
+        same[half:-half] = index[2 * half:] - index[: -2 * half] == 2 * half
+    edges = np.diff(np.r_[0, (~same).astype(np.int8), 0])
+    for p, q in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        # the rows within 15 on either side, and at least a kernel of them (no shorter filter: the
+        # same values, without scipy's warning of a kernel longer than its input)
+        hi = min(q + half, index.size)
+        lo = max(min(p - half, hi - MEDIAN_KERNEL), 0)
+        hi = min(max(hi, lo + MEDIAN_KERNEL), index.size)
+        near = values_all[index[lo:hi]] * scale
+        for k in range(1 if near.ndim == 1 else near.shape[1]):
+            col = near if near.ndim == 1 else near[:, k]
+            filtered = median_filter(col)[p - lo:q - lo]
+            if out.ndim == 1:
+                out[p:q] = filtered
+            else:
+                out[p:q, k] = filtered
+    return out
+
+
 def resample_by_temperature(temp_rel_c: np.ndarray, values: np.ndarray, n_bins: int = N_BINS):
     """Bin means of temperature and value, as process_sensor_caldata.py ``resampleWithDeltaX``.
 
@@ -234,37 +285,65 @@ def resample_by_temperature(temp_rel_c: np.ndarray, values: np.ndarray, n_bins: 
     -------
     (temp_rel_c, values) : tuple of (m,) arrays, m ≤ n_bins
     """
-    x = np.asarray(temp_rel_c, dtype=float)
-    y = np.asarray(values, dtype=float)
-    x_min, x_max = float(np.min(x)), float(np.max(x))
-    width = (x_max - x_min) / n_bins
-    idx = np.full(x.shape, n_bins - 1, dtype=np.int64)
-    below = x < x_max
-    idx[below] = ((x[below] - x_min) / width).astype(np.int64)
-    # the script would raise IndexError if rounding put x < max into bin n_bins; use the last bin
-    idx = np.minimum(idx, n_bins - 1)
-    count = np.bincount(idx, minlength=n_bins)
-    keep = count != 0
-    sum_x = np.bincount(idx, weights=x, minlength=n_bins)
-    sum_y = np.bincount(idx, weights=y, minlength=n_bins)
-    return sum_x[keep] / count[keep], sum_y[keep] / count[keep]
+    bins = TemperatureBins(temp_rel_c, n_bins)
+    return bins.mean_x, bins.mean(values)
 
 
-def _fit_cubic(temperature_c, samples, name: str, subtract_median: bool, resample: bool):
-    """(tmin, tmax, tref, x, medians): the script's steps 1–5 on one sensor's three axes."""
+class TemperatureBins:
+    """The bins of :func:`resample_by_temperature`, found once for every axis binned on them.
+
+    Parameters
+    ----------
+    temp_rel_c : (n,) array
+        Temperature relative to TREF (°C).
+    n_bins : int
+        Number of equal-width temperature bins.
+
+    Attributes
+    ----------
+    mean_x : (m,) ndarray
+        Mean temperature of each non-empty bin, m ≤ n_bins.
+    """
+
+    def __init__(self, temp_rel_c, n_bins: int = N_BINS):
+        x = np.asarray(temp_rel_c, dtype=float)
+        x_min, x_max = float(np.min(x)), float(np.max(x))
+        width = (x_max - x_min) / n_bins
+        idx = np.full(x.shape, n_bins - 1, dtype=np.int64)
+        below = x < x_max
+        idx[below] = ((x[below] - x_min) / width).astype(np.int64)
+        # the script would raise IndexError if rounding put x < max into bin n_bins; use the last bin
+        self.idx, self.n_bins = np.minimum(idx, n_bins - 1), n_bins
+        count = np.bincount(self.idx, minlength=n_bins)
+        self.keep = count != 0
+        self.count = count[self.keep]
+        self.mean_x = self.mean(x)
+
+    def mean(self, values) -> np.ndarray:
+        """Mean of ``values`` (n,) in each non-empty bin, (m,)."""
+        total = np.bincount(self.idx, weights=np.asarray(values, dtype=float), minlength=self.n_bins)
+        return total[self.keep] / self.count
+
+
+def _fit_cubic(temperature_c, samples, name: str, subtract_median: bool, resample: bool, filtered=None):
+    """(tmin, tmax, tref, x, medians): the script's steps 1–5 on one sensor's three axes
+    (``filtered``: the samples already through :func:`median_filter`, column by column)."""
     t = as_temperature(temperature_c)
     a = as_samples(samples, t.size, name)
+    if filtered is not None and np.shape(filtered) != a.shape:
+        raise FirmwareCalError(f"filtered must be {a.shape} like {name}; got {np.shape(filtered)}")
     tmin, tmax = float(np.min(t)), float(np.max(t))
     if not tmax > tmin:
         raise FirmwareCalError(f"temperature_c is constant ({tmin:g} °C); PX4's fit needs a temperature span")
     tref = 0.5 * (tmin + tmax)
     temp_rel = t - tref
     coeffs, medians = [], []
+    bins = TemperatureBins(temp_rel) if resample else None  # the same bins for the three axes
     for axis in range(3):
-        filtered = median_filter(a[:, axis])
-        median = float(np.median(filtered))
-        y = filtered - median if subtract_median else filtered
-        xs, ys = resample_by_temperature(temp_rel, y) if resample else (temp_rel, y)
+        column = median_filter(a[:, axis]) if filtered is None else filtered[:, axis]
+        median = float(np.median(column))
+        y = column - median if subtract_median else column
+        xs, ys = (bins.mean_x, bins.mean(y)) if resample else (temp_rel, y)
         if xs.size < 4:
             raise FirmwareCalError(f"only {xs.size} distinct temperature bins; a cubic needs at least 4")
         p = np.polyfit(xs, ys, 3)  # highest power first: X3, X2, X1, X0
@@ -274,7 +353,7 @@ def _fit_cubic(temperature_c, samples, name: str, subtract_median: bool, resampl
 
 
 def fit_px4(temperature_c, accel_m_s2, *, device_id: int = 0, instance: int = 0,
-            resample: bool = True) -> Px4AccelCal:
+            resample: bool = True, filtered=None) -> Px4AccelCal:
     """Fit ``TC_A{instance}_*`` exactly as PX4 Tools/process_sensor_caldata.py does.
 
     Parameters
@@ -290,6 +369,9 @@ def fit_px4(temperature_c, accel_m_s2, *, device_id: int = 0, instance: int = 0,
         n in ``TC_An`` (0..3).
     resample : bool
         False reproduces the script's ``--no_resample`` (fit the raw filtered samples).
+    filtered : (n, 3) array, optional
+        ``accel_m_s2`` already through :func:`median_filter`, column by column (e.g. from
+        :func:`median_filter_rows`); by default filtered here.
 
     Returns
     -------
@@ -301,12 +383,12 @@ def fit_px4(temperature_c, accel_m_s2, *, device_id: int = 0, instance: int = 0,
     the median → 2000-bin temperature resampling → ``np.polyfit(deg=3)`` about TREF.
     """
     n = check_instance(instance, 0, PX4_INSTANCES - 1, "TC_A{}")
-    tmin, tmax, tref, x, medians = _fit_cubic(temperature_c, accel_m_s2, "accel_m_s2", True, resample)
+    tmin, tmax, tref, x, medians = _fit_cubic(temperature_c, accel_m_s2, "accel_m_s2", True, resample, filtered)
     return Px4AccelCal(n, int(device_id), tmin, tmax, tref, x, medians)
 
 
 def fit_px4_gyro(temperature_c, gyro_rad_s, device_id: int = 0, instance: int = 0, *,
-                 resample: bool = True) -> Px4GyroCal:
+                 resample: bool = True, filtered=None) -> Px4GyroCal:
     """Fit ``TC_G{instance}_*`` as PX4 Tools/process_sensor_caldata.py does for ``sensor_gyro``.
 
     Parameters
@@ -321,6 +403,8 @@ def fit_px4_gyro(temperature_c, gyro_rad_s, device_id: int = 0, instance: int = 
         n in ``TC_Gn`` (0..3).
     resample : bool
         False reproduces ``--no_resample``.
+    filtered : (n, 3) array, optional
+        ``gyro_rad_s`` already through :func:`median_filter`, column by column.
 
     Returns
     -------
@@ -333,7 +417,7 @@ def fit_px4_gyro(temperature_c, gyro_rad_s, device_id: int = 0, instance: int = 
     (a still gyro should read 0; the accelerometer's level is gravity and stays with CAL_ACC).
     """
     n = check_instance(instance, 0, PX4_INSTANCES - 1, "TC_G{}")
-    tmin, tmax, tref, x, _ = _fit_cubic(temperature_c, gyro_rad_s, "gyro_rad_s", False, resample)
+    tmin, tmax, tref, x, _ = _fit_cubic(temperature_c, gyro_rad_s, "gyro_rad_s", False, resample, filtered)
     return Px4GyroCal(n, int(device_id), tmin, tmax, tref, x)
 
 
