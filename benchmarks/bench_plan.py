@@ -25,7 +25,11 @@ Original protocol (``ORIGINAL``): 25 → 85 → −40 → 25 °C at 60 °C/h wit
 
 Acceptance (issue 29): the plan names the truth first in ≥ 95 % of 50 seeds per truth, the
 repeated protocol less. Usage: python benchmarks/bench_plan.py [--seeds 50] [--workers 2]
-[--pairs lag_vs_gradient,...] [--budget-h 12] [--json benchmarks/results/bench_plan.json]
+[--pairs lag_vs_gradient,...] [--budget-h 12] [--real DIR [--real-seeds 10]] [--merge]
+[--json benchmarks/results/bench_plan.json]
+
+``--real DIR`` also plans on the real TofuPilot thermal cycle (three axes, one orientation): its
+``twin compare --axes`` finding on z is uncertain between stress_relaxation and thermal_gradient.
 """
 
 from __future__ import annotations
@@ -129,18 +133,53 @@ def run_pair(name: str, seeds: int, workers: int, budget_h: float, tmp: Path) ->
     return out
 
 
+TOFU_COLUMNS = ["--time-col", "timestamp", "--time-unit", "us", "--temperature-col", "imu.temperature", "--x-col",
+                "imu.acc.x", "--y-col", "imu.acc.y", "--z-col", "imu.acc.z", "--output-unit", "m/s^2"]
+
+
+def run_tofupilot(real: Path, axis: str, seeds: int, workers: int, budget_h: float, tmp: Path) -> dict:
+    """The real TofuPilot thermal cycle: ``twin compare --axes x,y,z``, then ``twin plan`` on one axis'
+    finding (the paper scenario's sensor and twin), its predicted separation and check."""
+    log = real / "tofupilot_imu_thermal" / "imu_raw_data.tsv"
+    finding, plan_json = tmp / "tofu_compare.json", tmp / "tofu_plan.json"
+    scn = str(ROOT / "scenarios" / "paper_iis328dq.yaml")
+    p = twin_cmd("compare", scn, str(log), *TOFU_COLUMNS, "--axes", "x,y,z", "--json", str(finding))
+    if p.returncode:
+        raise SystemExit(f"twin compare failed: {p.stderr.strip()}")
+    axes = json.loads(finding.read_text())["imus"][0]["axes"]
+    t0 = time.perf_counter()
+    p = twin_cmd("plan", str(finding), scn, "--axis", axis, "--budget-h", str(budget_h), "--check-seeds", str(seeds),
+                 "--workers", str(workers), "-o", str(tmp / "tofu_next.yaml"), "--json", str(plan_json))
+    if p.returncode:
+        raise SystemExit(f"twin plan failed: {p.stderr.strip()}")
+    r = json.loads(plan_json.read_text())
+    return {"axis": axis, "finding": {a: {"named": f["selected"], "confidence": f["confidence"], "rivals": f["rivals"]}
+                                      for a, f in axes.items()},
+            "rivals": [x["effect"] for x in r["rivals"]], "plan": r["plan"], "baselines": r["baselines"],
+            "why": r["why"], "check": r.get("check"), "wall_s_plan_and_check": time.perf_counter() - t0}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=50, help="simulated tests per truth, for the plan and for the repeated protocol")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--budget-h", type=float, default=12.0)
     ap.add_argument("--pairs", default=",".join(PAIRS))
+    ap.add_argument("--real", type=Path, default=None,
+                    help="folder of the real logs (tofupilot_imu_thermal/...): plan on the TofuPilot finding too")
+    ap.add_argument("--real-seeds", type=int, default=10, help="check seeds of the TofuPilot plan")
+    ap.add_argument("--merge", action="store_true", help="keep what --json already holds, add what this run makes")
     ap.add_argument("--json", default="benchmarks/results/bench_plan.json")
     args = ap.parse_args()
     result: dict = {"machine": machine(), "budget_h": args.budget_h, "seeds": args.seeds,
-"original_protocol": ORIGINAL, "pairs": {}}
+                    "original_protocol": ORIGINAL, "pairs": {}}
+    if args.merge and Path(args.json).exists():
+        result = {**json.loads(Path(args.json).read_text()), "machine": machine()}
     with tempfile.TemporaryDirectory() as tmp:
-        for name in args.pairs.split(","):
+        if args.real is not None:
+            result["tofupilot"] = run_tofupilot(args.real, "z", args.real_seeds, args.workers, args.budget_h, Path(tmp))
+            write_json(args.json, result)
+        for name in filter(None, args.pairs.split(",")):
             result["pairs"][name] = run_pair(name, args.seeds, args.workers, args.budget_h, Path(tmp))
             p = result["pairs"][name]
             print(name, "start:", p["starting_log"]["confidence"], p["starting_log"]["named"],

@@ -132,6 +132,23 @@ def plan_results(path: Path) -> str:
             pc, bc = p["plan_check"].get(truth), p["protocol_repeated_check"].get(truth)
             lines.append(f"| {name if k == 0 else ''} | {start if k == 0 else ''} | {plan if k == 0 else ''} | "
                          f"{truth} | {rate(pc)} | {pred(pc)} | {rate(bc)} |")
+    tofu = data.get("tofupilot")
+    if tofu:
+        f = tofu["finding"][tofu["axis"]]
+        lines += ["", f"**The real TofuPilot thermal cycle** (axis {tofu['axis']}, one orientation): the finding names "
+                      f"{', '.join(f['named']) or 'nothing'} ({f['confidence']}), rivals {', '.join(f['rivals']) or 'none'}. "
+                      f"The plan: {tofu['plan']['description']} ({tofu['plan']['chamber_hours']:.3g} h).", "",
+                  "| true rival | over | expected ΔBIC, plan | " + " | ".join(f"{b['name'].replace('_', ' ')} ({b['chamber_hours']:.3g} h)"
+                                                                     for b in tofu["baselines"]) + " |",
+                  "|---|---|---|" + "---|" * len(tofu["baselines"])]
+        for q in tofu["plan"]["pairs"]:
+            others = [next((x["expected_delta_bic"] for x in b["pairs"] if (x["truth"], x["rival"]) == (q["truth"], q["rival"])), None)
+                      for b in tofu["baselines"]]
+            lines.append(f"| {q['truth']} | {q['rival']} | {q['expected_delta_bic']:.3g} | "
+                         + " | ".join("—" if v is None else f"{v:.3g}" for v in others) + " |")
+        if tofu.get("check"):
+            lines += ["", "Checked by simulation: " + "; ".join(f"{c['truth']} true, named first in {c['named_first']}/{c['seeds']}"
+                                                            for c in tofu["check"]) + "."]
     return "\n".join(lines) + "\n"
 
 

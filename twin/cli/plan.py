@@ -52,9 +52,9 @@ def _finding(path: Path, axis: str | None, imu: int | None) -> dict:
     return axes[axis]
 
 
-@app.command()
-def plan(
-    inputs: Annotated[list[Path], typer.Argument(help="FINDING.json SCENARIO (a twin compare --json result and the twin's scenario), or SCENARIO LOG (compare runs first), or SCENARIO with --rivals")],
+@app.command("plan")
+def plan_command(
+    inputs: Annotated[list[Path], typer.Argument(metavar="INPUTS", help="FINDING.json SCENARIO (a twin compare --json result and the twin's scenario), or SCENARIO LOG (compare runs first), or SCENARIO with --rivals")],
     output: Annotated[Path, typer.Option("-o", "--output", help="the planned test's scenario YAML")],
     budget_h: Annotated[float, typer.Option("--budget-h", min=0.5, max=2000.0, help="chamber hours the test may take, every run included")] = 12.0,
     chamber: Annotated[Optional[Path], typer.Option("--chamber", help="chamber limits YAML (min_c, max_c, max_ramp_c_per_h, orientations, max_power_ons)")] = None,

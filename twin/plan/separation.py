@@ -145,7 +145,7 @@ class _Plan:
         """fᵢ [g] for ``hyp`` at ``values`` (same seed: same thermometer and noise draws), and the
         probability that its held-out gain passes the decision rule."""
         if hyp.effect == NONE:
-            return np.zeros(self.QJ.shape[0]), 0.0
+            return np.zeros(self.problem.n), 0.0
         ds = simulate(load(with_hypothesis(self.scenario, hyp, values)), seed=self.seed)
         f = clean_output_g(ds) - self.clean0
         return f, self.gain_probability(f)
