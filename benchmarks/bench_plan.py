@@ -113,7 +113,7 @@ def run_pair(name: str, seeds: int, workers: int, budget_h: float, tmp: Path) ->
              "untestable": [u["effect"] for u in f["untestable"]],
              "withheld": [w["effect"] + "/" + w["outranked_by"] for w in f["withheld"]],
              "candidates_significant": [c["effect"] for c in f["candidates"] if c["significant"]]}
-    out: dict = {"twin": twin, "bias_tc": bias, "truths": [a[0], b[0]],
+    out: dict = {"twin": twin, "bias_tc": bias, "truths": [a[0], b[0]], "budget_h": budget_h,
                  "starting_log": {"truth": a[0], "values": a[1], **start}}
     t0 = time.perf_counter()
     p = twin_cmd("plan", str(finding), str(scn), "--rivals", f"{a[0]},{b[0]}", "--budget-h", str(budget_h),

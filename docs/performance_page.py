@@ -121,17 +121,20 @@ def plan_results(path: Path) -> str:
                       f"{100 * c['ci95'][1]:.0f} %)" if c else "—")
     pred = lambda c: "—" if not c or c.get("predicted") is None else f"{100 * c['predicted']:.0f} %"  # noqa: E731
     lines = [f"From `benchmarks/results/bench_plan.json` ({m.get('cpu_model', '?')}, {m.get('logical_cpus', '?')} "
-             f"CPUs), budget {data['budget_h']:g} chamber hours, {data['seeds']} seeds per truth.", "",
-             "| pair | starting log (truth A) | plan | truth | named first, plan | predicted | named first, "
+             f"CPUs), {data['seeds']} seeds per truth.", "",
+             "| pair (budget) | starting log (truth A) | plan | truth | named first, plan | predicted | named first, "
              "protocol repeated |", "|---|---|---|---|---|---|---|"]
     for name, p in data["pairs"].items():
         s = p["starting_log"]
         start = f"{s['confidence']}, named {', '.join(s['named']) or 'nothing'}"
         plan = f"{p['plan']['description']} ({p['plan']['chamber_hours']:.3g} h)"
+        repeated = next((b for b in p["baselines"] if b["name"] == "protocol_repeated"), None)
+        name = f"{name} ({p.get('budget_h', data['budget_h']):g} h)"
         for k, truth in enumerate(p["truths"]):
             pc, bc = p["plan_check"].get(truth), p["protocol_repeated_check"].get(truth)
             lines.append(f"| {name if k == 0 else ''} | {start if k == 0 else ''} | {plan if k == 0 else ''} | "
-                         f"{truth} | {rate(pc)} | {pred(pc)} | {rate(bc)} |")
+                         f"{truth} | {rate(pc)} | {pred(pc)} | {rate(bc)}"
+                         + (f" in {repeated['chamber_hours']:.3g} h |" if repeated and bc else " |"))
     tofu = data.get("tofupilot")
     if tofu:
         f = tofu["finding"][tofu["axis"]]

@@ -184,3 +184,13 @@ def test_plan_refuses_to_overwrite_its_input(tmp_path):
     target.write_text(Path(LAG_SCENARIO).read_text())
     r = run_cli("plan", str(target), "--rivals", "warmup,aging_drift", "-o", str(target))
     assert r.returncode == 2 and "overwrite an input" in r.stderr
+
+
+@pytest.mark.parametrize("executor, workers", [("local", 1), ("local", 2), ("dask", 1)])
+def test_jobs_come_back_in_order_on_every_executor(executor, workers):
+    from twin.plan.check import run_jobs
+
+    seen = []
+    out = run_jobs(abs, [-3, 1, -2, 5], workers=workers, executor=executor, progress=lambda k, n: seen.append((k, n)))
+    assert out == [3, 1, 2, 5]
+    assert seen[-1] == (4, 4)
