@@ -43,7 +43,17 @@ def search_factor(log: ThermalLog) -> int:
 
 class LagCache:
     """Lagged temperatures of one series by τ, least recently used dropped beyond the byte budget;
-    each run's clock read once (``runs``: (slice, RunClock) pairs, or read here), as ``lagged_c``."""
+    each run's clock read once, as ``lagged_c``.
+
+    Parameters
+    ----------
+    log : ThermalLog
+        The series (time [s], temperature [°C], runs).
+    budget : int
+        Bytes the cached lags may hold.
+    runs : list of (slice, RunClock), optional
+        Each run's rows and clock (default: read here from ``log``).
+    """
 
     def __init__(self, log: ThermalLog, budget: int = LAG_CACHE_BYTES, runs: list | None = None):
         self.log = log

@@ -258,11 +258,7 @@ def median_filter_rows(filtered_all: np.ndarray, values_all: np.ndarray, index: 
         near = values_all[index[lo:hi]] * scale
         for k in range(1 if near.ndim == 1 else near.shape[1]):
             col = near if near.ndim == 1 else near[:, k]
-            filtered = median_filter(col)[p - lo:q - lo]
-            if out.ndim == 1:
-                out[p:q] = filtered
-            else:
-                out[p:q, k] = filtered
+            (out if out.ndim == 1 else out[:, k])[p:q] = median_filter(col)[p - lo:q - lo]
     return out
 
 
@@ -320,7 +316,16 @@ class TemperatureBins:
         self.mean_x = self.mean(x)
 
     def mean(self, values) -> np.ndarray:
-        """Mean of ``values`` (n,) in each non-empty bin, (m,)."""
+        """Mean of ``values`` in each non-empty bin.
+
+        Parameters
+        ----------
+        values : (n,) array-like, one value per sample binned
+
+        Returns
+        -------
+        (m,) ndarray, the mean in each non-empty bin in bin order
+        """
         total = np.bincount(self.idx, weights=np.asarray(values, dtype=float), minlength=self.n_bins)
         return total[self.keep] / self.count
 
