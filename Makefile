@@ -69,6 +69,8 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_long.py --skip-week --json benchmarks/results/bench_long.json
 	$(PY) benchmarks/bench_discovery.py --seeds 50 --workers 2 --json benchmarks/results/bench_discovery.json
 	$(PY) benchmarks/bench_one_twin.py --json benchmarks/results/bench_one_twin.json
+	$(PY) benchmarks/bench_calibrate_scale.py --runs 3 --json benchmarks/results/bench_calibrate_scale.json
+	$(PY) benchmarks/bench_plan.py --seeds 50 --workers 2 --real $(abspath $(REAL)) --json benchmarks/results/bench_plan.json
 	$(TWIN) benchmark scenarios/paper_iis328dq.yaml --seeds 3 --json out/benchmark.json --report out/benchmark
 
 # the documentation site into docs/_build/html: warnings are errors; every tutorial and gallery

@@ -15,17 +15,17 @@ Truth B's values are those the starting finding calibrated for B on truth A's lo
 explain that log); each seed of the check draws both within the finding's intervals.
 
 Original protocol (``ORIGINAL``): 25 → 85 → −40 → 25 °C at 60 °C/h with 30-min dwells, one run at
-+1 g, one power-on, 1 Hz (6.7 h). Steps, per pair, as a user runs them:
++1 g, one power-on, 1 Hz (6.17 h). Steps, per pair, as a user runs them:
 
 1. simulate the original protocol with truth A (seed 0) and ``twin compare --json`` it (the
    starting finding; its confidence and rivals are recorded);
-2. ``twin plan FINDING SCENARIO --rivals A,B --budget-h 12 --check-seeds N --check-baseline``: the
+2. ``twin plan FINDING SCENARIO --rivals A,B --budget-h 12.4 --check-seeds N --check-baseline``: the
    plan, its predicted separation, and the check — the plan and the original protocol repeated to
    the budget, each simulated with A and with B as the truth on N seeds and diagnosed blind.
 
 Acceptance (issue 29): the plan names the truth first in ≥ 95 % of 50 seeds per truth, the
 repeated protocol less. Usage: python benchmarks/bench_plan.py [--seeds 50] [--workers 2]
-[--pairs lag_vs_gradient,...] [--budget-h 12] [--real DIR [--real-seeds 10]] [--merge]
+[--pairs lag_vs_gradient,...] [--budget-h 12.4] [--real DIR [--real-seeds 10]] [--merge]
 [--json benchmarks/results/bench_plan.json]
 
 ``--real DIR`` also plans on the real TofuPilot thermal cycle (three axes, one orientation): its
@@ -163,7 +163,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=50, help="simulated tests per truth, for the plan and for the repeated protocol")
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--budget-h", type=float, default=12.0)
+    # 12.4 h: two cycles of the 6.17-h original protocol fit, so the repeated protocol runs as long as the plan
+    ap.add_argument("--budget-h", type=float, default=12.4)
     ap.add_argument("--pairs", default=",".join(PAIRS))
     ap.add_argument("--real", type=Path, default=None,
                     help="folder of the real logs (tofupilot_imu_thermal/...): plan on the TofuPilot finding too")
