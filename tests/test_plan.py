@@ -15,7 +15,7 @@ from conftest import ROOT, run_cli
 from twin.errors import TwinError
 from twin.model.scenario import load_scenario
 from twin.model.simulate import time_base
-from twin.plan.check import wilson_interval
+from twin.fleet.population import wilson_ci95
 from twin.plan.hypotheses import NONE, Hypothesis, hypotheses_from_finding
 from twin.plan.programs import ChamberLimits, PlannedTest, candidate_programs
 from twin.plan.scenarios import base_scenario, load, with_hypothesis, with_program
@@ -123,10 +123,11 @@ def test_drawn_parameters_are_seeded_and_within_bounds():
 
 
 def test_wilson_interval_reference_values():
-    """Wilson (1927) score interval; reference values computed by hand from the closed form."""
-    assert wilson_interval(0, 10) == pytest.approx((0.0, 0.27754), abs=1e-5)
-    assert wilson_interval(5, 10) == pytest.approx((0.23659, 0.76341), abs=1e-5)
-    assert wilson_interval(50, 50)[0] == pytest.approx(0.92865, abs=1e-5)
+    """Wilson (1927) score interval, the one the check's rates use; reference values computed by hand
+    from the closed form."""
+    assert wilson_ci95(0, 10) == pytest.approx((0.0, 0.27754), abs=1e-5)
+    assert wilson_ci95(5, 10) == pytest.approx((0.23659, 0.76341), abs=1e-5)
+    assert wilson_ci95(50, 50)[0] == pytest.approx(0.92865, abs=1e-5)
 
 
 def test_plan_command_designs_a_flip_for_a_scale_factor_tempco(tmp_path):
@@ -188,9 +189,10 @@ def test_plan_refuses_to_overwrite_its_input(tmp_path):
 
 @pytest.mark.parametrize("executor, workers", [("local", 1), ("local", 2), ("dask", 1)])
 def test_jobs_come_back_in_order_on_every_executor(executor, workers):
-    from twin.plan.check import run_jobs
+    from twin.plan.check import job_client, run_jobs
 
     seen = []
-    out = run_jobs(abs, [-3, 1, -2, 5], workers=workers, executor=executor, progress=lambda k, n: seen.append((k, n)))
+    with job_client(executor, None, workers) as client:
+        out = run_jobs(abs, [-3, 1, -2, 5], workers=workers, client=client, progress=lambda k, n: seen.append((k, n)))
     assert out == [3, 1, 2, 5]
     assert seen[-1] == (4, 4)

@@ -3,18 +3,20 @@ how often the diagnosis names the truth first (docs/plan.md §4).
 
 Each seed draws the truth's parameters from their uncertainty and simulates the test with its own
 noise; the diagnosis sees the twin's scenario and the log, never the truth. Rates come with a 95 %
-Wilson interval.
+Wilson interval (:func:`twin.fleet.population.wilson_ci95`, as the fleet's prevalences).
 """
 
 from __future__ import annotations
 
-import math
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
 
+from twin.fleet.population import wilson_ci95
+from twin.fleet.runner import dask_client, die_with_parent
 from twin.plan.hypotheses import NONE, Hypothesis
 from twin.plan.scenarios import load, with_hypothesis
 
@@ -49,34 +51,6 @@ class CheckRate:
     named: dict[str, int]
 
 
-def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """95 % Wilson score interval of a binomial rate k/n.
-
-    Parameters
-    ----------
-    k, n : int
-        Successes and trials.
-    z : float
-        Normal quantile (1.96: 95 %).
-
-    Returns
-    -------
-    tuple of float
-
-    References
-    ----------
-    Wilson, E. B. (1927), Probable inference, the law of succession, and statistical inference,
-    *J. Am. Stat. Assoc.* 22:209–212.
-    """
-    if n == 0:
-        return (0.0, 1.0)
-    p = k / n
-    d = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / d
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return (max(0.0, c - h), min(1.0, c + h))
-
-
 def diagnose_once(job: tuple[dict, Hypothesis, int]) -> str:
     """Simulate the test with the hypothesis as truth (drawn at the seed) and diagnose it blind.
 
@@ -103,9 +77,39 @@ def diagnose_once(job: tuple[dict, Hypothesis, int]) -> str:
     return d.selected[0].effect if d.selected else NONE
 
 
-def run_jobs(fn: Callable, jobs: list, workers: int = 1, executor: str = "local", scheduler: str | None = None,
+@contextmanager
+def job_client(executor: str, scheduler: str | None, workers: int) -> Iterator:
+    """The Dask client every phase of a plan shares (None for local processes): the fleet's
+    :func:`~twin.fleet.runner.dask_client`, so a named scheduler that does not answer is one line; a
+    local cluster started here is closed on exit.
+
+    Parameters
+    ----------
+    executor : {"local", "dask"}
+    scheduler : str, optional
+        A running Dask scheduler's address (default: a local cluster of ``workers``).
+    workers : int
+
+    Yields
+    ------
+    distributed.Client or None
+    """
+    if executor != "dask":
+        yield None
+        return
+    client = dask_client(scheduler, workers)
+    try:
+        yield client
+    finally:
+        cluster = None if scheduler else client.cluster
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def run_jobs(fn: Callable, jobs: list, workers: int = 1, client=None,
              progress: Callable[[int, int], None] | None = None) -> list:
-    """``[fn(j) for j in jobs]`` in order, on ``workers`` local processes or a Dask cluster.
+    """``[fn(j) for j in jobs]`` in order, on a Dask ``client`` or on ``workers`` local processes.
 
     Parameters
     ----------
@@ -113,9 +117,9 @@ def run_jobs(fn: Callable, jobs: list, workers: int = 1, executor: str = "local"
         A picklable function of one job.
     jobs : list
     workers : int
-    executor : {"local", "dask"}
-    scheduler : str, optional
-        A running Dask scheduler's address (default: a local cluster of ``workers``).
+        Local processes (without a client).
+    client : distributed.Client, optional
+        From :func:`job_client`.
     progress : callable, optional
         ``progress(done, total)``.
 
@@ -125,17 +129,13 @@ def run_jobs(fn: Callable, jobs: list, workers: int = 1, executor: str = "local"
     """
     tick = progress or (lambda done, total: None)
     out: list = [None] * len(jobs)
-    if executor == "dask":
-        from dask.distributed import Client, LocalCluster, as_completed
+    if client is not None:
+        from dask.distributed import as_completed
 
-        cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True)
-        with Client(scheduler or cluster) as client:
-            futures = {client.submit(fn, j, pure=False): k for k, j in enumerate(jobs)}
-            for done, fut in enumerate(as_completed(futures), 1):
-                out[futures[fut]] = fut.result()
-                tick(done, len(jobs))
-        if cluster is not None:
-            cluster.close()
+        futures = {client.submit(fn, j, pure=False): k for k, j in enumerate(jobs)}
+        for done, fut in enumerate(as_completed(futures), 1):
+            out[futures[fut]] = fut.result()
+            tick(done, len(jobs))
         return out
     if workers <= 1:
         for k, j in enumerate(jobs):
@@ -144,7 +144,7 @@ def run_jobs(fn: Callable, jobs: list, workers: int = 1, executor: str = "local"
         return out
     from concurrent.futures import ProcessPoolExecutor, as_completed as done_first
 
-    with ProcessPoolExecutor(workers) as ex:
+    with ProcessPoolExecutor(workers, initializer=die_with_parent) as ex:  # a killed plan ends its workers
         futures = {ex.submit(fn, j): k for k, j in enumerate(jobs)}
         for done, fut in enumerate(done_first(futures), 1):
             out[futures[fut]] = fut.result()
@@ -180,6 +180,6 @@ def check_plan(scenario: dict, hyps: list[Hypothesis], seeds: int, predicted: di
     for k, h in enumerate(hyps):
         mine = named[k * seeds:(k + 1) * seeds]
         hits = sum(n == h.effect for n in mine)
-        out.append(CheckRate(h.effect, seeds, hits, hits / seeds if seeds else 0.0, wilson_interval(hits, seeds),
+        out.append(CheckRate(h.effect, seeds, hits, hits / seeds if seeds else 0.0, wilson_ci95(hits, seeds) or (0.0, 1.0),
                              predicted.get(h.effect), dict(Counter(mine).most_common())))
     return tuple(out)

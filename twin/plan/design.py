@@ -18,7 +18,7 @@ import yaml
 
 from twin.errors import TwinError
 from twin.model.scenario import LoadedScenario
-from twin.plan.check import check_plan, run_jobs
+from twin.plan.check import check_plan, job_client, run_jobs
 from twin.plan.hypotheses import NONE, Hypothesis, default_hypothesis, hypotheses_from_finding
 from twin.plan.programs import ChamberLimits, PlannedTest, candidate_programs, program_hours
 from twin.plan.result import PairSeparation, PlanResult, ProgramStep, RivalRecord, TestDesign
@@ -217,7 +217,13 @@ def plan_test(loaded: LoadedScenario, finding: dict | None, settings: PlanSettin
     TwinError
         Too few rivals, a budget no candidate fits, an unknown effect.
     """
-    s = settings
+    with job_client(settings.executor, settings.scheduler, settings.workers) as client:  # one cluster, every phase
+        return _plan_test(loaded, finding, settings, progress, client)
+
+
+def _plan_test(loaded: LoadedScenario, finding: dict | None, s: PlanSettings,
+               progress: Callable[[int, int], None] | None, client) -> tuple[PlanResult, dict]:
+    """:func:`plan_test` on a Dask ``client`` (None: local processes)."""
     hyps = rivals_of(finding, s.rivals)
     base = base_scenario(loaded, finding)
     programs = candidate_programs(s.limits, s.budget_h, start_c=loaded.scenario.program.start_c)
@@ -233,7 +239,7 @@ def plan_test(loaded: LoadedScenario, finding: dict | None, settings: PlanSettin
 
     def run(fn, jobs):  # every phase on one progress bar
         tick = None if progress is None else (lambda k, n: progress(done[0] + k, total))
-        out = run_jobs(fn, jobs, s.workers, s.executor, s.scheduler, tick)
+        out = run_jobs(fn, jobs, s.workers, client, tick)
         done[0] += len(jobs)
         return out
 

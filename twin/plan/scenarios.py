@@ -79,7 +79,7 @@ def base_scenario(loaded: LoadedScenario, finding: dict | None, name: str = "pla
     sensor = scn.device.sensor.model_dump(exclude_none=True, exclude_defaults=True, mode="json")
     sensor["noise_density_ug_per_sqrt_hz"] = noise_density_ug(loaded, finding)
     thermo = scn.chamber.thermometer
-    twin_effects = [e for e in scn.twin.effects] if isinstance(scn.twin.effects, list) else list(scn.twin.effects)
+    twin_effects = list(scn.twin.effects)
     values = twin_values(finding) if finding else {}
     device = {e: _settable(e, values.get(e, {})) for e in twin_effects if get_effect(e).slot != "temperature"}
     board_tau = scn.chamber.lumped.board_tau_s if scn.chamber.lumped is not None else 300.0

@@ -125,11 +125,11 @@ class _Plan:
         self.cal: TwinFit = fit_twin(self.problem, loaded.twin_composition(), intervals=False)
         runs = self.problem.run_avg
         self.white = lambda x: self.cal.ar.prewhiten(self.problem.avg(x), runs)  # noqa: E731
-        self.QJ = orthonormal_basis(self.white(self.cal.X_full))
+        self.J = self.problem.avg(self.cal.X_full)
+        self.QJ = orthonormal_basis(self.cal.ar.prewhiten(self.J, runs))
         r = self.cal.ar.prewhiten(self.cal.residual_avg, runs)
         self.sigma2 = float(r @ r) / max(1, r.size - self.QJ.shape[1])
         # the held-out gain is judged on the block means as they are (not prewhitened)
-        self.J = self.problem.avg(self.cal.X_full)
         self.Qraw = orthonormal_basis(self.J)
         self.y_avg = self.problem.avg(self.problem.y - self.cal.fixed_full)
         self.block_var = float(np.var(self.cal.residual_avg))
