@@ -12,7 +12,8 @@ from conftest import ROOT
 # twin's subsystems, lowest first: a module may import only from its own layer or the ones below
 # (docs/architecture.md draws the same picture).
 LAYERS = [
-    {"twin", "twin.errors", "twin.io", "twin.text", "twin.html", "twin.plugins", "twin.arrays", "twin.results"},
+    {"twin", "twin.errors", "twin.io", "twin.text", "twin.html", "twin.plugins", "twin.arrays", "twin.results",
+     "twin.processes"},
     {"twin.parts", "twin.firmware"},
     {"twin.effects"},
     {"twin.model"},

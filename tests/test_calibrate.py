@@ -203,3 +203,21 @@ def test_outputs_in_new_folders_are_created_and_an_output_over_an_input_is_refus
     assert run_cli("firmware", str(cal), "--format", "px4", "-o", str(out)).returncode == 0 and out.is_file()
     err = _one_line_error(run_cli("firmware", str(cal), "--format", "px4", "-o", str(cal)))
     assert "would overwrite an input" in err
+
+
+def test_imus_calibrated_side_by_side_give_the_document_of_one_after_the_other(ulog_cal, tmp_path):
+    """Three IMUs on two forked workers and on one: the same document byte for byte but its time stamp
+    (each IMU's calibration depends on its own logs only; the results come back in instance order)."""
+    log, _, _ = ulog_cal
+    docs = []
+    for workers in ("1", "3"):
+        out = tmp_path / f"w{workers}.json"
+        r = run_cli("calibrate", str(log), "-o", str(out), "--workers", workers)
+        assert r.returncode == 0, r.stderr
+        doc = json.loads(out.read_text())
+        doc.pop("created_utc")
+        docs.append(doc)
+    assert docs[0] == docs[1]
+    assert [i["instance"] for i in docs[1]["imus"]] == [0, 1, 2]
+    r = run_cli("calibrate", str(log), "-o", str(tmp_path / "no.json"), "--workers", "0")
+    assert r.returncode == 2 and "--workers" in r.stderr and not (tmp_path / "no.json").exists()

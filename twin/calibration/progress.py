@@ -19,16 +19,18 @@ class FitProgress:
         What the bar names (``"IMU 0"``).
     enabled : bool, optional
         Default: standard error is a terminal.
+    position : int, optional
+        Row of the bar (IMUs calibrated side by side each draw on their own row).
     """
 
-    def __init__(self, label: str, enabled: bool | None = None):
+    def __init__(self, label: str, enabled: bool | None = None, position: int = 0):
         if enabled is None:
             enabled = bool(getattr(sys.stderr, "isatty", lambda: False)())
         self._bar = None
         if enabled:
             from tqdm import tqdm
 
-            self._bar = tqdm(total=None, desc=label, unit="fit", file=sys.stderr, leave=True)
+            self._bar = tqdm(total=None, desc=label, unit="fit", file=sys.stderr, leave=True, position=position)
 
     def expect(self, steps: int) -> None:
         """Set the number of steps (known once the protocol is).

@@ -8,6 +8,7 @@ the validation table, and provenance (input hashes, software version, validation
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +37,7 @@ from twin.calibration.plausibility import (
     rate_bound_notes,
     tcso_flags,
 )
+from twin.calibration.parallel import each_imu
 from twin.calibration.progress import FitProgress
 from twin.calibration.recommend import Recommendation, recommend
 from twin.calibration.runtime import calibration_runtime
@@ -379,7 +381,8 @@ def calibrate_imu(logs: list[ImuLog], extra_methods: dict | None = None, reverse
                           recommendation, tuple((f.name, f.both_directions) for f in protocol.folds))
 
 
-def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[list[ImuCalibration], dict[int, str]]:
+def calibrate_imus(per_instance: dict[int, list[ImuLog]], workers: int | None = None,
+                   **options) -> tuple[list[ImuCalibration], dict[int, str]]:
     """:func:`calibrate_imu` for each instance; an instance whose logs cannot be calibrated is
     skipped with the reason when others can (a flight controller's second IMU on a cooler part
     of the board often spans too little), and its error is raised when it is the only one.
@@ -390,6 +393,9 @@ def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[li
     Parameters
     ----------
     per_instance : dict of int to list of ImuLog
+    workers : int, optional
+        Processes calibrating IMUs side by side (:func:`twin.calibration.parallel.each_imu`;
+        default: one per IMU, at most one per usable CPU).
     **options
         Passed to :func:`calibrate_imu` (``compared`` taken per instance).
 
@@ -400,23 +406,29 @@ def calibrate_imus(per_instance: dict[int, list[ImuLog]], **options) -> tuple[li
     done, skipped = [], {}
     compared = options.pop("compared", None) or {}
     with calibration_runtime():  # BLAS on one thread, freed arrays reused (twin.calibration.runtime)
-        _calibrate_each(per_instance, options, compared, done, skipped)
+        for instance, outcome in each_imu(partial(_calibrate_one, per_instance, options, compared),
+                                          sorted(per_instance), workers):
+            if isinstance(outcome, ImuCalibration):
+                done.append(outcome)
+            elif len(per_instance) == 1:  # the only IMU: its refusal is the command's error
+                raise outcome
+            else:  # any refusal of this IMU's logs; the others are still calibrated
+                logs = per_instance[instance]
+                name = Path(logs[0].source).name
+                skipped[instance] = (str(outcome) if name and name in str(outcome)
+                                     else f"{name} instance {instance}: {outcome}")
     if not done:
         raise CalibrationInputError("no IMU can be calibrated: " + "; ".join(skipped.values()))
     return done, skipped
 
 
-def _calibrate_each(per_instance, options, compared, done, skipped) -> None:
-    """The loop of :func:`calibrate_imus`: results into ``done``, refusals into ``skipped``."""
-    for instance, logs in sorted(per_instance.items()):
-        extra = dict(options.get("extra_methods") or {})
-        if instance in compared:
-            extra[COMPARED] = ComposedCompensator(compared[instance])
-        try:
-            with FitProgress(f"IMU {instance}") as progress:  # drawn on a terminal only
-                done.append(calibrate_imu(logs, **{**options, "extra_methods": extra, "progress": progress}))
-        except TwinError as exc:  # any refusal of this IMU's logs; the others are still calibrated
-            if len(per_instance) == 1:
-                raise
-            name = Path(logs[0].source).name
-            skipped[instance] = str(exc) if name and name in str(exc) else f"{name} instance {instance}: {exc}"
+def _calibrate_one(per_instance, options, compared, instance: int, position: int = 0):
+    """One IMU of :func:`calibrate_imus`: its calibration, or the :class:`TwinError` refusing it."""
+    extra = dict(options.get("extra_methods") or {})
+    if instance in compared:
+        extra[COMPARED] = ComposedCompensator(compared[instance])
+    try:
+        with FitProgress(f"IMU {instance}", position=position) as progress:  # drawn on a terminal only
+            return calibrate_imu(per_instance[instance], **{**options, "extra_methods": extra, "progress": progress})
+    except TwinError as exc:
+        return exc

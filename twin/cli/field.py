@@ -133,6 +133,7 @@ def calibrate(
     plugin: Annotated[Optional[list[str]], typer.Option("--plugin", help="effect module (.py path or module name) to load for --with-effect; runs its code")] = None,
     part: Annotated[str, typer.Option("--part", help="part set whose datasheet TCOff/TCSo bound a plausible fit (twin parts)")] = "IIS328DQ",
     report: Annotated[Optional[Path], typer.Option("--report", help="write report.html (tables, residual plots, equations) into DIR")] = None,
+    workers: Annotated[Optional[int], typer.Option("--workers", min=1, help="processes calibrating IMUs side by side (default: one per IMU, at most one per CPU)")] = None,
     json_out: JsonOpt = None,
 ) -> None:
     """Fit the PX4 and ArduPilot methods, a held-out polynomial and the lag-aware twin per IMU;
@@ -169,6 +170,8 @@ def calibrate(
         Part set whose datasheet TCOff [mg/°C] and TCSo [ppm/°C] bound a plausible fit.
     report : Path, optional
         Folder for ``report.html``.
+    workers : int, optional
+        Processes calibrating IMUs side by side.
     json_out : str, optional
         ``--json``: where the result goes (``-``: stdout).
     """
@@ -189,7 +192,8 @@ def calibrate(
                           time_unit=time_unit, output_unit=output_unit)
         run = run_calibrate(CalibrateOptions.build(
             logs=logs, columns=cmap, imu=imu, reverse=not no_reverse, device_id=device_id,
-            with_effects=with_effect or [], effects_from=effects_from, plugins=plugin or [], part=part))
+            with_effects=with_effect or [], effects_from=effects_from, plugins=plugin or [], part=part,
+            workers=workers))
         results, skipped, doc = run.calibrations, run.skipped, run.document.to_json()
         emit_json(doc, str(output))
         if report is not None:

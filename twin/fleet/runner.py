@@ -9,12 +9,6 @@ does not answer within ``connect_timeout_s`` is one line, not a hang.
 
 from __future__ import annotations
 
-import ctypes
-import os
-import signal
-import sys
-import threading
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,6 +16,7 @@ from twin.fleet.ledger import LEDGER, append_record, exclusive, open_ledger, rea
 from twin.fleet.result import FleetRow
 from twin.fleet.spec import FleetError, FleetSpec
 from twin.fleet.units import evaluate_unit
+from twin.processes import die_with_parent
 
 
 @dataclass
@@ -48,24 +43,6 @@ class FleetRun:
     torn_dropped: bool = False
     temporaries_removed: int = 0
     notes: list[str] = field(default_factory=list)
-
-
-def die_with_parent() -> None:
-    """Pool initialiser: end this worker when its parent dies, a kill -9 included (Linux: the
-    kernel's PR_SET_PDEATHSIG; elsewhere, and as a backstop, a thread polling the parent)."""
-    parent = os.getppid()
-    if sys.platform.startswith("linux"):
-        try:
-            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # 1 = PR_SET_PDEATHSIG
-        except (OSError, AttributeError):
-            pass
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(1.0)
-        os._exit(1)
-
-    threading.Thread(target=watch, daemon=True).start()
 
 
 def dask_client(scheduler: str | None, workers: int, connect_timeout_s: float = 10.0, processes: bool = True):

@@ -44,6 +44,8 @@ class CalibrateOptions(Options):
         Effect modules to load for ``with_effects``.
     part : str
         Part set whose datasheet TCOff/TCSo bound a plausible fit.
+    workers : int, optional
+        Processes calibrating IMUs side by side (default: one per IMU, at most one per CPU).
     """
 
     logs: list[Path] = Field(min_length=1)
@@ -55,6 +57,7 @@ class CalibrateOptions(Options):
     effects_from: Path | None = None
     plugins: list[str] = []
     part: str = "IIS328DQ"
+    workers: int | None = Field(default=None, ge=1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -156,6 +159,7 @@ def run_calibrate(opts: CalibrateOptions) -> CalibrationRun:
         raise TwinError(f"--device-id names one sensor, but the logs hold IMU instances {sorted(per)}; "
                         "choose one with --imu")
     results, skipped = calibrate_imus(per, reverse=opts.reverse, device_id=opts.device_id,
-                                      limits=limits_for_part(opts.part), extra_methods=extra, compared=compared)
+                                      limits=limits_for_part(opts.part), extra_methods=extra, compared=compared,
+                                      workers=opts.workers)
     document = calibration_document(results, file_provenance(opts.logs), __version__, skipped)
     return CalibrationRun(results, skipped, document, per)
