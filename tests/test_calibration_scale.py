@@ -285,3 +285,21 @@ def test_the_tofupilot_table_is_the_one_before():
     twin = cal.fitted["twin"]
     np.testing.assert_allclose(twin.tau_die_s_, TOFU_BEFORE_TAU_S["die"], rtol=1e-7, atol=1e-9)
     np.testing.assert_allclose(twin.tau_rate_s_, TOFU_BEFORE_TAU_S["rate"], rtol=1e-7)
+
+
+def test_a_long_log_holds_out_four_branches_spread_over_it_the_last_one_included():
+    """Eight ramps (four cycles): four leave-one-branch-out folds, not eight — the forward fold on the
+    last branch, the first branch, both directions held out, the others' training rows unchanged;
+    a two-cycle log keeps every branch it can leave out."""
+    t = np.arange(0.0, 4 * 5400.0, 1.0)
+    phase = t % 5400.0  # 10 min dwell at -20 °C, 35 min up to 50 °C, 10 min dwell, 35 min down
+    T = np.interp(phase, [0, 600, 2700, 3300, 5400], [-20, -20, 50, 50, -20])
+    p = protocol_as_used(t, T)
+    names = [f.name for f in p.folds]
+    assert len(p.folds) == 4 and names[-1].startswith("forward: cooling 4"), names
+    assert names[0].startswith("leave out: heating 1")
+    assert {n.split(": ")[1].split(" ")[0] for n in names} == {"heating", "cooling"}
+    assert "4 of the 8 branches" in p.note
+    two = protocol_as_used(t[t < 2 * 5400], T[t < 2 * 5400])
+    assert len(two.folds) == 4 and two.note == ""
+    assert all(f.both_directions for f in p.folds)

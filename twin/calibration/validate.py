@@ -230,7 +230,8 @@ def validate(models: dict, time_s, temperature_c, accel_g, protocol: Protocol, r
     dummy = ValidationResult(tuple(scores), tuple(floor), ("",) * 3, times)
     pooled = np.array([dummy.rms_mg(m) for m in dummy.methods])
     best = tuple(dummy.methods[i] for i in np.argmin(pooled, axis=0))
-    notes = tuple(f"note ({f.name}): {f.note}" for f in protocol.folds if f.note) + tuple(skipped)
+    notes = ((f"note ({protocol.name}): {protocol.note}",) if protocol.note else ()) + \
+        tuple(f"note ({f.name}): {f.note}" for f in protocol.folds if f.note) + tuple(skipped)
     return ValidationResult(tuple(scores), tuple(float(v) for v in floor), best, times, notes)
 
 

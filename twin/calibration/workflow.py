@@ -408,7 +408,7 @@ def calibrate_imus(per_instance: dict[int, list[ImuLog]], workers: int | None = 
     with calibration_runtime():  # BLAS on one thread, freed arrays reused (twin.calibration.runtime)
         for instance, outcome in each_imu(partial(_calibrate_one, per_instance, options, compared),
                                           sorted(per_instance), workers):
-            if isinstance(outcome, ImuCalibration):
+            if not isinstance(outcome, TwinError):
                 done.append(outcome)
             elif len(per_instance) == 1:  # the only IMU: its refusal is the command's error
                 raise outcome
