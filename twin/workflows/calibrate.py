@@ -16,6 +16,7 @@ from pydantic import Field
 from twin.errors import TwinError
 from twin.measurement import ColumnMap
 from twin.workflows.options import Options
+from twin.workflows.warm import import_in_background
 
 if TYPE_CHECKING:
     from twin.calibration.result import CalibrationDocument
@@ -113,6 +114,8 @@ def composed_methods(with_effects: list[str], effects_from: Path | None, plugins
     compared : dict of int to dict of str to list of str
         IMU instance → axis → effect names.
     """
+    if not (with_effects or effects_from or plugins):
+        return {}, {}
     from twin.calibration.composed import ComposedCompensator, effects_named_by_compare
     from twin.effects import get_effect
     from twin.io import read_json
@@ -148,13 +151,17 @@ def run_calibrate(opts: CalibrateOptions) -> CalibrationRun:
     CalibrationRun
     """
     from twin import __version__
+    from twin.measurement import imu_logs_by_instance
+
+    # the fitting stack (scikit-learn, SciPy) is imported on a thread while the logs are read
+    warming = import_in_background("twin.calibration.workflow", "twin.calibration.document")
+    extra, compared = composed_methods(opts.with_effects, opts.effects_from, opts.plugins)
+    per = imu_logs_by_instance(opts.logs, opts.columns, opts.imu)
+    warming.join()
     from twin.calibration.document import calibration_document, file_provenance
     from twin.calibration.plausibility import limits_for_part
     from twin.calibration.workflow import calibrate_imus
-    from twin.measurement import imu_logs_by_instance
 
-    extra, compared = composed_methods(opts.with_effects, opts.effects_from, opts.plugins)
-    per = imu_logs_by_instance(opts.logs, opts.columns, opts.imu)
     if opts.device_id is not None and len(per) > 1:
         raise TwinError(f"--device-id names one sensor, but the logs hold IMU instances {sorted(per)}; "
                         "choose one with --imu")
