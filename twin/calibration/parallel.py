@@ -32,8 +32,12 @@ def imu_workers(requested: int | None, imus: int) -> int:
     Returns
     -------
     int
-        Between 1 and ``imus``.
+        Between 1 and ``imus``; 1 in a daemonic process, which may not start workers of its own.
     """
+    import multiprocessing
+
+    if multiprocessing.current_process().daemon:  # a daemonic worker (a Dask or Pool worker) may not fork
+        return 1
     wanted = usable_cpus() if requested is None else max(1, int(requested))
     return max(1, min(wanted, imus))
 
