@@ -86,6 +86,69 @@ def _section(name: str, data: dict) -> list[str]:
     return lines + [""]
 
 
+def _get(data: dict, path: str):
+    """``data["a"]["b"]…`` for ``"a/b/…"``, or None where a key is missing."""
+    for key in path.split("/"):
+        if not isinstance(data, dict) or key not in data:
+            return None
+        data = data[key]
+    return data
+
+
+#: the speed targets of the issue on calibration and compare at real-log scale: (what, file, path to
+#: the measured value, format, target as text, test of the value)
+TARGETS = [
+    ("2-h 4-IMU PX4 ULog: `twin calibrate` / PX4's script (equivalent), wall", "bench_calibrate_scale",
+     "logs/ulog/ratio_wall_to_px4_script", "{:.2f}×", "≤ 1×", lambda v: v <= 1.0),
+    ("2-h 4-IMU PX4 ULog: `twin calibrate` / PX4's bare polyfit, wall", "bench_calibrate_scale",
+     "logs/ulog/ratio_wall_to_px4", "{:.2f}×", "(lower bound of the script)", None),
+    ("6-h tester log, 2.16 M rows: wall", "bench_calibrate_scale", "logs/2.16M/twin_calibrate/wall_s",
+     "{:.1f} s", "≤ 30 s", lambda v: v <= 30.0),
+    ("6-h tester log, 2.16 M rows: peak memory", "bench_calibrate_scale", "logs/2.16M/twin_calibrate/peak_rss_mb",
+     "{:.0f} MB", "≤ 1000 MB", lambda v: v <= 1000.0),
+    ("tester log: µs per row at 0.54 M rows", "bench_calibrate_scale", "logs/0.54M/twin_calibrate/us_per_row",
+     "{:.2f}", "", None),
+    ("tester log: µs per row at 2.16 M rows", "bench_calibrate_scale", "logs/2.16M/twin_calibrate/us_per_row",
+     "{:.2f}", "≤ the 0.54 M figure", "per_row"),
+    ("24-h 100-Hz log: `twin compare` / pandas read", "bench_long",
+     "compare_vs_pandas_read_24h/ratio_compare_over_pandas_read", "{:.2f}×", "≤ 4×", lambda v: v <= 4.0),
+    ("24-h 100-Hz log: `twin compare` peak memory", "bench_long", "compare/24h/peak_rss_mb", "{:.0f} MB",
+     "≤ 1000 MB", lambda v: v <= 1000.0),
+    ("paper export (583,501 rows): `twin compare` / pandas read", "bench_compare",
+     "paper_export/ratio_compare_over_pandas_read", "{:.2f}×", "≤ 3×", lambda v: v <= 3.0),
+    ("PSO-GA-BPNN (paper's form) / MLPRegressor, wall, median of 3", "bench_fitting",
+     "end_to_end/paper_features/psoga_bpnn_wall_ratio", "{:.2f}×", "≤ 1.5×", lambda v: v <= 1.5),
+    ("… its population search alone / MLPRegressor's whole fit, wall", "bench_fitting",
+     "end_to_end/paper_features/psoga_bpnn_search_alone_over_mlpregressor", "{:.2f}×", "", None),
+    ("… its FLOP / MLPRegressor's FLOP", "bench_fitting", "end_to_end/paper_features/psoga_bpnn_flop_over_mlpregressor",
+     "{:.1f}×", "", None),
+]
+
+
+def targets(results_dir: Path) -> list[str]:
+    """The table of :data:`TARGETS`: each measured value from its JSON, and whether it meets its target."""
+    files = {p.stem: json.loads(p.read_text()) for p in Path(results_dir).glob("*.json")}
+    rows, per_row = [], {}
+    for what, name, path, fmt, target, ok in TARGETS:
+        value = _get(files.get(name, {}), path)
+        if not isinstance(value, (int, float)):
+            continue
+        per_row[path] = value
+        if ok == "per_row":
+            small = per_row.get("logs/0.54M/twin_calibrate/us_per_row")
+            met = None if small is None else value <= small
+        else:
+            met = ok(value) if ok else None
+        verdict = "" if met is None else ("met" if met else "**not met**")
+        rows.append(f"| {what} | {fmt.format(value)} | {target} | {verdict} |")
+    if not rows:
+        return []
+    return ["## Targets at real-log scale", "",
+            "The speed targets of calibration and compare on logs of real length, each read from the JSON "
+            "of its section below (one run of `make bench`; ratios measured within that run).", "",
+            "| figure | measured | target | |", "|---|---|---|---|", *rows, ""]
+
+
 def render(results_dir: Path) -> str:
     """The whole page for every JSON in ``results_dir`` (sorted by name)."""
     files = sorted(Path(results_dir).glob("*.json"))
@@ -97,6 +160,7 @@ def render(results_dir: Path) -> str:
              "would otherwise pick, side by side in one run.", ""]
     if not files:
         lines += ["No benchmark results are checked in yet: run `make bench`.", ""]
+    lines += targets(results_dir)
     for path in files:
         lines += _section(path.stem, json.loads(path.read_text()))
     return "\n".join(lines)

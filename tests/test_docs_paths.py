@@ -108,3 +108,23 @@ def test_performance_page_is_rendered_from_the_json(tmp_path):
     assert "| a | 0.5 | 0.4, 0.6 |  |" in page and "| b | 0.75 |  | yes |" in page
     assert "| ratio_to_peer | 1.235 |" in page and "seed" not in page  # per-row detail stays in the file
     assert "took 12 s" in page
+
+
+def test_the_targets_table_reads_each_figure_from_its_json(tmp_path):
+    """The real-log-scale targets: the value of the JSON, met or not by the target's own test."""
+    import json
+    import sys
+
+    sys.path.insert(0, str(ROOT / "docs"))
+    from performance_page import targets
+
+    assert targets(tmp_path) == []  # no JSON, no table
+    (tmp_path / "bench_long.json").write_text(json.dumps(
+        {"compare_vs_pandas_read_24h": {"ratio_compare_over_pandas_read": 4.2}, "compare": {"24h": {"peak_rss_mb": 800}}}))
+    (tmp_path / "bench_calibrate_scale.json").write_text(json.dumps({"logs": {
+        "0.54M": {"twin_calibrate": {"us_per_row": 9.0}}, "2.16M": {"twin_calibrate": {"us_per_row": 8.5}}}}))
+    page = "\n".join(targets(tmp_path))
+    assert "| 24-h 100-Hz log: `twin compare` / pandas read | 4.20× | ≤ 4× | **not met** |" in page
+    assert "peak memory | 800 MB | ≤ 1000 MB | met |" in page
+    assert "µs per row at 2.16 M rows | 8.50 | ≤ the 0.54 M figure | met |" in page
+    assert "PSO-GA" not in page  # a benchmark not run is not shown
