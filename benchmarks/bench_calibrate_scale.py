@@ -39,7 +39,7 @@ Targets (issue 28, AMD EPYC, 2 cores): the ULog ≤ 1× PX4's method (both basel
 ``git worktree`` of the commit before) on the logs of ``--baseline-sizes``, in the same run.
 
 Usage: python benchmarks/bench_calibrate_scale.py [--sizes ulog,0.54M,1.08M,2.16M] [--quick]
-[--runs N] [--baseline DIR [--baseline-sizes ulog,0.54M]] [--tmp DIR]
+[--runs N] [--baseline DIR [--baseline-sizes ulog,0.54M]] [--tmp DIR] [--merge]
 [--json benchmarks/results/bench_calibrate_scale.json]
 """
 
@@ -347,6 +347,7 @@ def main() -> None:
     ap.add_argument("--baseline", type=Path, default=None,
                     help="folder holding an earlier version's twin package (run from there, once per log)")
     ap.add_argument("--baseline-sizes", default="ulog,0.54M", help="the logs the baseline runs on")
+    ap.add_argument("--merge", action="store_true", help="keep the logs --json holds that this run does not measure")
     args = ap.parse_args()
     sizes = ["ulog", "0.54M"] if args.quick else [s.strip() for s in args.sizes.split(",") if s.strip()]
     unknown = [s for s in sizes if s != "ulog" and s not in SIZES]
@@ -376,6 +377,11 @@ def main() -> None:
             result["logs"][label] = res
             print(label, json.dumps({k: v for k, v in res.items() if k not in ("imus", "imu_results")}), flush=True)
             log.unlink()
+    keep_previous(Path(args.json), result)  # the logs measured now carry the last run's figures
+    if args.merge and Path(args.json).exists():
+        kept = json.loads(Path(args.json).read_text()).get("logs", {})
+        result["logs"] = {label: result["logs"].get(label, kept.get(label))
+                          for label in ["ulog", *SIZES] if label in result["logs"] or label in kept}
     logs = result["logs"]
     verdict = {}
     if "ulog" in logs:
@@ -387,7 +393,6 @@ def main() -> None:
         if "0.54M" in logs:
             verdict["us_per_row_not_growing"] = big["us_per_row"] <= logs["0.54M"]["twin_calibrate"]["us_per_row"]
     result["meets_targets"] = verdict
-    keep_previous(Path(args.json), result)
     write_json(args.json, result)
 
 
