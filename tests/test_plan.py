@@ -5,6 +5,7 @@ odd in g needs a second orientation), and the command as a user runs it."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -33,13 +34,65 @@ def test_candidates_stay_within_budget_and_chamber_limits():
         assert p.hours() <= 10.0 + 1e-9
         assert all(30 <= r <= 120 for r in p.ramp_c_per_h)
         assert p.orientation in ("fixed", "flip") and 1 <= p.power_ons <= 2
-        temps = [s["target_c"] for s in p.steps() if "target_c" in s]
+        temps = [p.start_c] + [s["target_c"] for s in p.steps() if "target_c" in s]
         assert min(temps) >= -20 and max(temps) <= 70
-    # at its design, each candidate runs as many cycles as fit: one more would break the budget
-    p = programs[0]
+    # at its design, each candidate runs as many cycles (loops) as fit: one more would break the budget
+    p = next(p for p in programs if p.shape == "cycles")
     more = PlannedTest(p.low_c, p.high_c, p.start_c, p.ramp_c_per_h, p.dwell_s, p.cycles + 1, p.orientation,
                        p.power_ons)
     assert more.hours() > 10.0
+    loops = [p for p in programs if p.shape == "loops"]
+    assert loops and all(p.loops >= 2 and p.cycles == 1 and p.power_ons == 1 for p in loops)
+    assert all(-20 <= p.loop_low_c < p.loop_high_c <= 70 and set(p.loop_ramp_c_per_h) == {40.0, 120.0} for p in loops)
+    p = loops[0]
+    assert replace(p, loops=p.loops + 1).hours() > 10.0
+    # a soak holds the start temperature for the whole budget, the runs of a flip sharing it
+    soaks = [p for p in programs if p.shape == "soak"]
+    assert {(p.orientation, p.power_ons) for p in soaks} == {(o, n) for o in ("fixed", "flip") for n in (1, 2)}
+    assert all(p.hours() == pytest.approx(10.0) and len(p.steps()) == 1 for p in soaks)
+
+
+def test_logger_rates_stay_within_the_logger_and_the_sensor():
+    assert ChamberLimits().logger_rates() == [1.0, 1.5, 2.0, 3.0, 5.0]
+    assert ChamberLimits().logger_rates(odr_hz=2.5) == [1.0, 1.5, 2.0]
+    assert ChamberLimits(logger_rate_hz=2.0, max_logger_rate_hz=2.0).logger_rates() == [2.0]
+    with pytest.raises(ValueError, match="max_logger_rate_hz"):
+        ChamberLimits(logger_rate_hz=2.0, max_logger_rate_hz=1.0)
+    p = PlannedTest(-40, 85, 25, (60,), 3600, 1, "fixed", 1, 5.0, 3, 0.0, 60.0, (60.0, 180.0))
+    assert p.test_plan()["logger_rate_hz"] == 5.0 and "then 3 loops 0/60 °C at 60, 180 °C/h" in p.label()
+    turns = [s["target_c"] for s in p.steps() if s["type"] == "ramp"]
+    assert turns == [85, -40, 60, 0, 60, 0, 60, 0, 25]
+
+
+def test_the_race_keeps_the_design_the_diagnosis_reads_best():
+    """Successive halving on a stand-in diagnosis: the design whose truths stand furthest from the
+    decision rule wins, every design starts on the first round's seeds, the runs match the count a
+    progress bar is told."""
+    from twin.plan.trials import Outcome, TrialScore, race, race_jobs
+
+    quality = [0.01, 0.03, 0.08, 0.02, 0.05]  # mean held-out gain over the rule's minimum
+    calls = []
+
+    def runner(fn, jobs):  # a gain margin drawn about the design's quality, on seeds common to the designs
+        calls.extend(jobs)
+        out = []
+        for scn, h, seed in jobs:
+            g = scn["q"] + 0.02 * np.random.default_rng(seed).standard_normal()
+            out.append(Outcome(h.effect if g > 0 else NONE, g > 0, g, np.inf))
+        return out
+
+    hyps = [Hypothesis("warmup"), Hypothesis("aging_drift")]
+    best, scores = race([{"q": q} for q in quality], hyps, 12, runner)
+    assert best == 2 and scores[best].seeds == 12
+    assert len(calls) == race_jobs(len(quality), len(hyps), 12)
+    assert all(s.seeds >= 3 for s in scores)
+    # the margins see what a handful of seeds cannot count: all named, one far nearer the threshold
+    near = TrialScore(6, {"a": [Outcome("a", True, g, np.inf) for g in (0.002, 0.02, 0.005, 0.03, 0.001, 0.015)]})
+    far = TrialScore(6, {"a": [Outcome("a", True, g, np.inf) for g in (0.10, 0.12, 0.11, 0.09, 0.12, 0.10)]})
+    assert near.rate() == far.rate() == {"a": 1.0} and near.key() < far.key()
+    # a walk that takes the evidence on some seeds (−inf) counts as it comes
+    walked = TrialScore(4, {"a": [Outcome("a", True, 0.1, np.inf)] * 3 + [Outcome(NONE, False, 0.1, -np.inf)]})
+    assert walked.expected_rate()["a"] < 0.75
 
 
 def test_program_hours_match_the_simulated_time_base():

@@ -64,6 +64,22 @@ def diagnose_once(job: tuple[dict, Hypothesis, int]) -> str:
     str
         The effect named first, or ``none``.
     """
+    d = simulate_and_diagnose(job)
+    return d.selected[0].effect if d.selected else NONE
+
+
+def simulate_and_diagnose(job: tuple[dict, Hypothesis, int]):
+    """The diagnosis of :func:`diagnose_once`, whole.
+
+    Parameters
+    ----------
+    job : tuple
+        (scenario dict, hypothesis, seed).
+
+    Returns
+    -------
+    twin.diagnosis.diagnose.Diagnosis
+    """
     from twin.diagnosis.diagnose import diagnose
     from twin.estimation.problem import DiagnosisConfig, Problem
     from twin.measurement import from_dataset
@@ -73,8 +89,7 @@ def diagnose_once(job: tuple[dict, Hypothesis, int]) -> str:
     values = hyp.draw(np.random.default_rng(np.random.SeedSequence([seed, 7])))
     truth = load(with_hypothesis(scenario, hyp, values), "<plan check>")
     ds = simulate(truth, seed=seed)
-    d = diagnose(Problem(from_dataset(ds), DiagnosisConfig()), truth.twin_composition())
-    return d.selected[0].effect if d.selected else NONE
+    return diagnose(Problem(from_dataset(ds), DiagnosisConfig()), truth.twin_composition())
 
 
 @contextmanager

@@ -2,17 +2,19 @@
 the rivals a finding left open, checked by simulation (docs/plan.md).
 
 Every candidate of :func:`~twin.plan.programs.candidate_programs` is scored by its least predicted
-rate (each rival named first when true) and then by the T-optimal
-criterion of :mod:`~twin.plan.separation` (the least expected ΔBIC over ordered pairs of rivals);
-the best, fewest hours breaking ties, is the plan. Two obvious tests of the same budget are scored
-beside it: the scenario's own protocol repeated, and its protocol with a second ramp rate alone.
+rate (each rival named first when true) and then by the T-optimal criterion of
+:mod:`~twin.plan.separation` (the least expected ΔBIC over ordered pairs of rivals), fewest hours
+breaking ties. The best few (the best of each shape among them), each at every logger rate the
+chamber file allows, are then tried by simulation and the blind diagnosis (:mod:`~twin.plan.trials`):
+the one it reads best is the plan. Two obvious tests of the same budget are scored beside it: the
+scenario's own protocol repeated, and its protocol with a second ramp rate alone.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import yaml
 
@@ -24,7 +26,7 @@ from twin.plan.programs import ChamberLimits, PlannedTest, candidate_programs, p
 from twin.plan.result import PairSeparation, PlanResult, ProgramStep, RivalRecord, TestDesign
 from twin.plan.scenarios import base_scenario, with_hypothesis, with_program
 from twin.plan.separation import DETECT_BIC, Separation, separation
-
+from twin.plan.trials import TrialScore, race, race_jobs
 
 
 @dataclass(frozen=True)
@@ -41,7 +43,10 @@ class PlanSettings:
     draws : int
         Parameter draws per rival in the expected separation.
     finalists : int
-        Best candidates scored again with the screen's random-walk retest (0: none).
+        Best candidates tried by simulation, each at every logger rate of ``limits`` (0: none; the
+        best by the expected separation is the plan).
+    trial_seeds : int
+        Simulated tests per rival the winning finalist gets (the race starts each on 3).
     check_seeds : int
         Simulated tests per rival in the check (0: no check).
     check_baseline : bool
@@ -58,6 +63,7 @@ class PlanSettings:
     rivals: tuple[str, ...] = ()
     draws: int = 3
     finalists: int = 6
+    trial_seeds: int = 24
     check_seeds: int = 20
     check_baseline: bool = False
     seed: int = 0
@@ -89,12 +95,17 @@ def program_table(start_c: float, steps: list[dict]) -> tuple[ProgramStep, ...]:
     return tuple(rows)
 
 
-def _design(name: str, description: str, hours: float, test_plan: dict, orientation: str, sep: Separation) -> TestDesign:
+def _design(name: str, description: str, hours: float, test_plan: dict, orientation: str, sep: Separation,
+            trial: TrialScore | None = None) -> TestDesign:
     truth, rival, worst = sep.worst_pair()
     pairs = tuple(PairSeparation(a, b, float(sep.expected_delta_bic[i, j]))
                   for i, a in enumerate(sep.effects) for j, b in enumerate(sep.effects) if i != j and a != NONE)
+    # tried by simulation, the rate predicted is the trials' (the normal approximation misjudges the rule)
+    predicted = sep.predicted_rate if trial is None else trial.expected_rate()
     return TestDesign(name, description, round(hours, 3), int(test_plan.get("runs", 1)), orientation,
-                      len(test_plan.get("power_on_s", [0.0])), (truth, rival), worst, pairs, sep.predicted_rate)
+                      len(test_plan.get("power_on_s", [0.0])), (truth, rival), worst, pairs, predicted,
+                      float(test_plan.get("logger_rate_hz", 1.0)), None if trial is None else trial.rate(),
+                      0 if trial is None else trial.seeds)
 
 
 def _orientation(test_plan: dict) -> str:
@@ -125,6 +136,7 @@ def protocol_repeated(loaded: LoadedScenario, budget_h: float) -> tuple[dict, di
     if cycles < 1:
         return None
     program["cycles"] = cycles
+    plan["logger_rate_hz"] = float(scn.test_plan.logger_rate_hz)  # stated even where it is the default
     return program, plan, cycles * cycle_h * runs
 
 
@@ -188,7 +200,7 @@ def rivals_of(finding: dict | None, rivals: tuple[str, ...]) -> list[Hypothesis]
 
 
 def _score(job: tuple) -> Separation:
-    """:func:`separation` of one job (scenario, hypotheses, draws, seed[, walk])."""
+    """:func:`separation` of one job (scenario, hypotheses, draws, seed)."""
     return separation(*job)
 
 
@@ -233,7 +245,9 @@ def _plan_test(loaded: LoadedScenario, finding: dict | None, s: PlanSettings,
     obvious = obvious_tests(loaded, s)
     tests = [(p.program(), p.test_plan()) for p in programs] + [(o[2], o[3]) for o in obvious]
     check_base = s.check_baseline and bool(obvious) and obvious[0][0] == "protocol_repeated"
-    total = (len(tests) + (min(s.finalists, len(programs)) + len(obvious)) * (s.finalists > 0)
+    rates = s.limits.logger_rates(loaded.sensor().odr_hz)
+    n_trials = min(s.finalists, len(programs)) * len(rates) * (s.trial_seeds > 0)
+    total = (len(tests) + (race_jobs(n_trials, len(hyps), s.trial_seeds) + 1 if n_trials else 0)
              + s.check_seeds * len(hyps) * (1 + check_base))
     done = [0]
 
@@ -248,23 +262,25 @@ def _plan_test(loaded: LoadedScenario, finding: dict | None, s: PlanSettings,
     hyps = [h for h in hyps if h.effect not in unseen]
     seps = [sep.without(unseen) for sep in seps]
     # the least predicted rate first (the decision rule's held-out gain can bind where ΔBIC does not),
-    # then the T-optimal criterion, then the shorter test; the best few and the obvious tests again
-    # with the random-walk retest
-    key = lambda i, sep: (round(sep[i].least_rate, 3), sep[i].score, -programs[i].hours())  # noqa: E731
-    top = sorted(range(len(programs)), key=lambda i: key(i, seps), reverse=True)[:max(1, s.finalists)]
-    if s.finalists > 0:
-        again = top + list(range(len(programs), len(tests)))
-        seps = dict(zip(again, run(_score, [(with_program(base, *tests[i]), hyps, s.draws, s.seed, True)
-                                            for i in again])))
-    k = max(top, key=lambda i: key(i, seps))
-    best, best_sep = programs[k], seps[k]
-    design = _design("plan", best.label(), best.hours(), best.test_plan(), best.orientation, best_sep)
+    # then the T-optimal criterion, then the shorter test
+    key = lambda i: (round(seps[i].least_rate, 3), seps[i].score, -programs[i].hours())  # noqa: E731
+    k = max(range(len(programs)), key=key)
+    best, best_sep, trial = programs[k], seps[k], None
+    if n_trials:
+        # the expected separation misjudges the rule near its thresholds: the finalists race through
+        # the blind diagnosis itself, each at every logger rate
+        designs = [replace(programs[i], logger_rate_hz=r) for i in _finalists(programs, key, s.finalists) for r in rates]
+        w, scores = race([with_program(base, d.program(), d.test_plan()) for d in designs], hyps, s.trial_seeds, run)
+        best, trial = designs[w], scores[w]
+        if best != programs[k]:  # scored at the chamber file's logger rate only, or not the best
+            best_sep = run(_score, [(with_program(base, best.program(), best.test_plan()), hyps, s.draws, s.seed)])[0]
+    design = _design("plan", best.label(), best.hours(), best.test_plan(), best.orientation, best_sep, trial)
     baselines = tuple(_design(n, d, h, tp, _orientation(tp), seps[len(programs) + j])
                       for j, (n, d, _, tp, h) in enumerate(obvious))
-    scenario = with_program(base, *tests[k])
+    scenario = with_program(base, best.program(), best.test_plan())
     check = base_check = None
     if s.check_seeds > 0:
-        check = check_plan(scenario, hyps, s.check_seeds, best_sep.predicted_rate, runner=run)
+        check = check_plan(scenario, hyps, s.check_seeds, design.predicted_rate, runner=run)
         if check_base:
             base_check = check_plan(with_program(base, *tests[len(programs)]), hyps, s.check_seeds,
                                     seps[len(programs)].predicted_rate, runner=run)
@@ -275,6 +291,17 @@ def _plan_test(loaded: LoadedScenario, finding: dict | None, s: PlanSettings,
         baselines=baselines, why=_why(design, baselines), check=check, baseline_check=base_check)
     leading = next((h for h in hyps if h.effect != NONE), hyps[0])
     return result, with_hypothesis(scenario, leading)
+
+
+def _finalists(programs: list[PlannedTest], key: Callable[[int], tuple], n: int) -> list[int]:
+    """The ``n`` best candidates by ``key``, the best of each shape among them (a loop or a soak
+    program excites what the criterion ranks low near the thresholds: a weak memory of the path, a
+    warm-up against aging)."""
+    order = sorted(range(len(programs)), key=key, reverse=True)
+    firsts: dict[str, int] = {}
+    for i in order:
+        firsts.setdefault(programs[i].shape, i)
+    return list(dict.fromkeys(list(firsts.values())[:n] + order))[:n]
 
 
 def obvious_tests(loaded: LoadedScenario, s: PlanSettings) -> list[tuple[str, str, dict, dict, float]]:

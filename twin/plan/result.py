@@ -88,7 +88,16 @@ class TestDesign:
         The criterion [1].
     pairs : tuple of PairSeparation
     predicted_rate : dict of str to float
-        Predicted probability that the diagnosis names each rival first when true [1].
+        Predicted probability that the diagnosis names each rival first when true [1]: from the
+        simulated trials' margins where the test was tried (the plan), else the expected separation's
+        normal approximation.
+    logger_rate_hz : float
+        Logger rate of the test [Hz].
+    trial_rate : dict of str to float, optional
+        Share of the ranking's simulated tests on which the blind diagnosis named each rival first
+        when true [1] (the plan, when its finalists were tried by simulation).
+    trial_seeds : int
+        Simulated tests per rival behind ``trial_rate``.
     """
 
     name: str
@@ -101,6 +110,9 @@ class TestDesign:
     worst_expected_delta_bic: float
     pairs: tuple[PairSeparation, ...]
     predicted_rate: dict[str, float]
+    logger_rate_hz: float = 1.0
+    trial_rate: dict[str, float] | None = None
+    trial_seeds: int = 0
 
 
 @dataclass(frozen=True)
