@@ -16,7 +16,6 @@ from pydantic import Field
 from twin.errors import TwinError
 from twin.measurement import ColumnMap
 from twin.workflows.options import Options
-from twin.workflows.warm import import_in_background
 
 if TYPE_CHECKING:
     from twin.calibration.result import CalibrationDocument
@@ -153,11 +152,8 @@ def run_calibrate(opts: CalibrateOptions) -> CalibrationRun:
     from twin import __version__
     from twin.measurement import imu_logs_by_instance
 
-    # the fitting stack (scikit-learn, SciPy) is imported on a thread while the logs are read
-    warming = import_in_background("twin.calibration.workflow", "twin.calibration.document")
     extra, compared = composed_methods(opts.with_effects, opts.effects_from, opts.plugins)
     per = imu_logs_by_instance(opts.logs, opts.columns, opts.imu)
-    warming.join()
     from twin.calibration.document import calibration_document, file_provenance
     from twin.calibration.plausibility import limits_for_part
     from twin.calibration.workflow import calibrate_imus

@@ -8,20 +8,17 @@ One axis gives a :class:`~twin.finding.result.CompareResult`; ``axes`` give an
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 from pydantic import Field, model_validator
 
+from twin.diagnosis.axes import check_applied_measurement, compare_imu
+from twin.diagnosis.diagnose import Diagnosis
+from twin.finding.build import compare_measurement, finished_result, imu_result
+from twin.finding.discovery import PLUGIN_NAME
+from twin.finding.result import AxesCompareResult, CompareResult
 from twin.measurement import ColumnMap
 from twin.workflows.options import Options
-from twin.workflows.warm import import_in_background
-
-if TYPE_CHECKING:  # the analysis is imported while the log is read (run_compare)
-    from twin.diagnosis.diagnose import Diagnosis
-    from twin.finding.result import AxesCompareResult, CompareResult
-
-#: what run_compare needs after the read: imported on a thread meanwhile (twin.workflows.warm)
-ANALYSIS = ("twin.model.scenario", "twin.effects", "twin.diagnosis.axes", "twin.finding.build")
 
 Axis = Literal["x", "y", "z"]
 
@@ -96,8 +93,6 @@ class CompareOptions(Options):
             ``discover_plugin`` (with ``_sub`` added), else the report's ``discovered_effect.py``;
             None without either.
         """
-        from twin.finding.discovery import PLUGIN_NAME
-
         if self.discover_plugin is not None:
             return self.discover_plugin if not sub else self.discover_plugin.with_name(
                 f"{self.discover_plugin.stem}_{sub}.py")
@@ -127,30 +122,25 @@ def run_compare(opts: CompareOptions) -> CompareResult | AxesCompareResult:
     CompareResult or AxesCompareResult
         One axis, or (with ``axes``) every IMU asked for.
     """
+    from twin.effects import load_plugin
     from twin.measurement import imu_logs_by_instance, load_measurements
+    from twin.model.scenario import load_scenario
 
-    # the scenario is parsed once the log is read: the analysis it needs is imported meanwhile
-    warming = import_in_background(*ANALYSIS)
+    loaded = load_scenario(opts.scenario)
+    with_effects = list(opts.with_effects)
+    for spec in opts.plugins:
+        with_effects += [n for n in load_plugin(spec) if n not in with_effects]
     names = ", ".join(p.name for p in opts.measurements)
     sources = [str(p) for p in opts.measurements]
     if not opts.axes:
         applied = 1.0 if opts.applied_g is None else opts.applied_g
         m = load_measurements(opts.measurements, opts.columns, skip_bad_rows=opts.skip_bad_rows, applied_g=applied)
-        loaded, with_effects = _twin_of(opts, warming)
-        from twin.diagnosis.axes import check_applied_measurement
-        from twin.finding.build import compare_measurement
-
         if isinstance(opts.applied_g, float):
             # a given --applied-g is checked against the static rows before any fit is made on it
             check_applied_measurement(m, opts.applied_g)
         d, result = compare_measurement(loaded, m, with_effects, opts.average_s, opts.discover, opts.plugin_target())
         return _record(opts, d, result, "", f"twin compare: {names}")
     per_instance = imu_logs_by_instance(opts.measurements, opts.columns, opts.imu, skip_bad_rows=opts.skip_bad_rows)
-    loaded, with_effects = _twin_of(opts, warming)
-    from twin.diagnosis.axes import compare_imu
-    from twin.finding.build import finished_result, imu_result
-    from twin.finding.result import AxesCompareResult
-
     imus = []
     for instance, logs in sorted(per_instance.items()):
         joint = compare_imu(loaded, logs, opts.axes, with_effects, opts.average_s, opts.applied_g)
@@ -161,16 +151,3 @@ def run_compare(opts: CompareOptions) -> CompareResult | AxesCompareResult:
                                     f"twin compare: {names}, IMU {instance} {axis}")
         imus.append(imu_result(joint, results))
     return AxesCompareResult(tuple(imus), " ".join(f"IMU {r.instance}: {r.finding}" for r in imus))
-
-
-def _twin_of(opts: CompareOptions, warming) -> tuple:
-    """The scenario and the effects added to its twin (plugins loaded), once the imports are done."""
-    warming.join()
-    from twin.effects import load_plugin
-    from twin.model.scenario import load_scenario
-
-    loaded = load_scenario(opts.scenario)
-    with_effects = list(opts.with_effects)
-    for spec in opts.plugins:
-        with_effects += [n for n in load_plugin(spec) if n not in with_effects]
-    return loaded, with_effects
