@@ -277,7 +277,7 @@ def main() -> None:
     if "7d" in result["compare"]:
         result["targets_7d"] = {"peak_rss_mb<=4096": result["compare"]["7d"]["peak_rss_mb"] <= 4096}
     result["play_operator"] = play_benchmark(8_640_000)
-    result["note"] = "cpu_s is user+sys of the process (twin compare imports on a second thread while it reads); ratios are medians of runs alternated with their anchor"
+    result["note"] = "cpu_s is user+sys of the process; ratios are medians of runs alternated with their anchor"
     write_json(args.json, result)
 
 
