@@ -199,6 +199,12 @@ def plan_results(path: Path) -> str:
             lines.append(f"| {name if k == 0 else ''} | {start if k == 0 else ''} | {plan if k == 0 else ''} | "
                          f"{truth} | {rate(pc)} | {pred(pc)} | {rate(bc)}"
                          + (f" in {repeated['chamber_hours']:.3g} h |" if repeated and bc else " |"))
+    timed = [(name, p) for name, p in data["pairs"].items() if p.get("design_wall_s") is not None]
+    if timed:
+        lines += ["", "Wall-clock time of `twin plan --workers 2` (candidates scored and finalists raced; then the "
+                      "check of the plan and of the repeated protocol): "
+                  + "; ".join(f"{name} {p['design_wall_s'] / 60:.1f} min, check {p['check_wall_s'] / 60:.1f} min"
+                              for name, p in timed) + "."]
     tofu = data.get("tofupilot")
     if tofu:
         f = tofu["finding"][tofu["axis"]]

@@ -17,7 +17,8 @@ from twin.errors import TwinError
 from twin.model.scenario import load_scenario
 from twin.model.simulate import time_base
 from twin.fleet.population import wilson_ci95
-from twin.plan.hypotheses import NONE, Hypothesis, hypotheses_from_finding
+from twin.plan.check import check_plan
+from twin.plan.hypotheses import NONE, WALK, Hypothesis, hypotheses_from_finding
 from twin.plan.programs import ChamberLimits, PlannedTest, candidate_programs
 from twin.plan.scenarios import base_scenario, load, with_hypothesis, with_program
 from twin.plan.separation import separation
@@ -53,8 +54,9 @@ def test_candidates_stay_within_budget_and_chamber_limits():
 
 
 def test_logger_rates_stay_within_the_logger_and_the_sensor():
-    assert ChamberLimits().logger_rates() == [1.0, 1.5, 2.0, 3.0, 5.0]
-    assert ChamberLimits().logger_rates(odr_hz=2.5) == [1.0, 1.5, 2.0]
+    assert ChamberLimits().logger_rates() == [1.0, 2.0, 3.0, 5.0, 10.0]
+    assert ChamberLimits(max_logger_rate_hz=5.0).logger_rates() == [1.0, 2.0, 3.0, 5.0]
+    assert ChamberLimits().logger_rates(odr_hz=2.5) == [1.0, 2.0]
     assert ChamberLimits(logger_rate_hz=2.0, max_logger_rate_hz=2.0).logger_rates() == [2.0]
     with pytest.raises(ValueError, match="max_logger_rate_hz"):
         ChamberLimits(logger_rate_hz=2.0, max_logger_rate_hz=1.0)
@@ -173,6 +175,29 @@ def test_drawn_parameters_are_seeded_and_within_bounds():
     assert all(5.0 <= d["tau_s"] <= 1500.0 for d in a)
     lag = with_hypothesis(base_scenario(load_scenario(LAG_SCENARIO), None), Hypothesis("thermal_lag", {"tau_s": 250.0}))
     assert lag["chamber"]["lumped"]["die_tau_s"] == 250.0 and "thermal_lag" not in lag["device"]["effects"]
+
+
+def test_a_wandering_bias_is_as_large_as_what_the_named_effect_explained(tmp_path):
+    """The bias random walk rival: its size is the residual the named effect removed, its time the
+    effect's; it reaches the simulated sensor as a Gauss–Markov bias of that standard deviation; and
+    naming nothing is the right answer when it is true."""
+    f = _finding(rms_residual_g=1.5e-3, rms_after_selected_g=0.9e-3)
+    f["candidates"][0]["parameters"] = {"tau_s": 7200.0}
+    hyps = hypotheses_from_finding(f, ["stress_relaxation", WALK])
+    walk = hyps[1]
+    assert walk.values == pytest.approx({"bias_instability_mg": 1.2, "bias_instability_tau_s": 7200.0})
+    assert walk.draw(np.random.default_rng(5)) == walk.draw(np.random.default_rng(5))
+    # a 24-h soak at 1 Hz with a 600-s correlation time holds ~144 independent wanders: the sample
+    # standard deviation is within 20 % of σ (its own spread is ~6 %)
+    test = PlannedTest(-40, 85, 25, (60.0,), 86400.0, 0, "fixed", 1)
+    scn = with_hypothesis(with_program(base_scenario(load_scenario(LAG_SCENARIO), None), test.program(), test.test_plan()),
+                          walk, {"bias_instability_mg": 1.2, "bias_instability_tau_s": 600.0})
+    from twin.model.simulate import simulate
+
+    wander = simulate(load(scn), seed=3)["truth/noise_bias_instability_g"][...]
+    assert np.std(wander) * 1e3 == pytest.approx(1.2, rel=0.2)
+    rates = check_plan(scn, hyps, 4, {}, runner=lambda fn, jobs: [NONE] * len(jobs))
+    assert {r.truth: r.named_first for r in rates} == {"stress_relaxation": 0, WALK: 4}
 
 
 def test_wilson_interval_reference_values():

@@ -58,7 +58,7 @@ def plan_command(
     output: Annotated[Path, typer.Option("-o", "--output", help="the planned test's scenario YAML")],
     budget_h: Annotated[float, typer.Option("--budget-h", min=0.5, max=2000.0, help="chamber hours the test may take, every run included")] = 12.0,
     chamber: Annotated[Optional[Path], typer.Option("--chamber", help="chamber limits YAML (min_c, max_c, max_ramp_c_per_h, orientations, max_power_ons)")] = None,
-    rivals: Annotated[Optional[str], typer.Option("--rivals", help="effects to separate instead of the finding's, comma-separated (none allowed)")] = None,
+    rivals: Annotated[Optional[str], typer.Option("--rivals", help="effects to separate instead of the finding's, comma-separated (none and bias_random_walk allowed)")] = None,
     axis: Annotated[Optional[str], typer.Option("--axis", help="axis of a --axes finding (default: the first uncertain one)")] = None,
     imu: Annotated[Optional[int], typer.Option("--imu", help="IMU instance of a --axes finding (default: the first)")] = None,
     check_seeds: Annotated[int, typer.Option("--check-seeds", min=0, max=10_000, help="simulated tests per rival in the check (0: no check)")] = 20,

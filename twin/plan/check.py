@@ -17,7 +17,7 @@ import numpy as np
 
 from twin.fleet.population import wilson_ci95
 from twin.fleet.runner import dask_client, die_with_parent
-from twin.plan.hypotheses import NONE, Hypothesis
+from twin.plan.hypotheses import NONE, Hypothesis, named_when_true
 from twin.plan.scenarios import load, with_hypothesis
 
 
@@ -31,7 +31,8 @@ class CheckRate:
         The hypothesis simulated as the truth (``none``: the twin alone).
     seeds : int
     named_first : int
-        Seeds on which the diagnosis named ``truth`` first (for ``none``: named nothing).
+        Seeds on which the diagnosis named ``truth`` first (for ``none`` and ``bias_random_walk``:
+        named nothing).
     rate : float
         named_first / seeds [1].
     ci95 : tuple of float
@@ -194,7 +195,7 @@ def check_plan(scenario: dict, hyps: list[Hypothesis], seeds: int, predicted: di
     out = []
     for k, h in enumerate(hyps):
         mine = named[k * seeds:(k + 1) * seeds]
-        hits = sum(n == h.effect for n in mine)
+        hits = sum(n == named_when_true(h.effect) for n in mine)
         out.append(CheckRate(h.effect, seeds, hits, hits / seeds if seeds else 0.0, wilson_ci95(hits, seeds) or (0.0, 1.0),
                              predicted.get(h.effect), dict(Counter(mine).most_common())))
     return tuple(out)

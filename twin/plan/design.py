@@ -13,6 +13,7 @@ scenario's own protocol repeated, and its protocol with a second ramp rate alone
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -21,7 +22,7 @@ import yaml
 from twin.errors import TwinError
 from twin.model.scenario import LoadedScenario
 from twin.plan.check import check_plan, job_client, run_jobs
-from twin.plan.hypotheses import NONE, Hypothesis, default_hypothesis, hypotheses_from_finding
+from twin.plan.hypotheses import NULLS, Hypothesis, default_hypothesis, hypotheses_from_finding
 from twin.plan.programs import ChamberLimits, PlannedTest, candidate_programs, program_hours
 from twin.plan.result import PairSeparation, PlanResult, ProgramStep, RivalRecord, TestDesign
 from twin.plan.scenarios import base_scenario, with_hypothesis, with_program
@@ -99,7 +100,7 @@ def _design(name: str, description: str, hours: float, test_plan: dict, orientat
             trial: TrialScore | None = None) -> TestDesign:
     truth, rival, worst = sep.worst_pair()
     pairs = tuple(PairSeparation(a, b, float(sep.expected_delta_bic[i, j]))
-                  for i, a in enumerate(sep.effects) for j, b in enumerate(sep.effects) if i != j and a != NONE)
+                  for i, a in enumerate(sep.effects) for j, b in enumerate(sep.effects) if i != j and a not in NULLS)
     # tried by simulation, the rate predicted is the trials' (the normal approximation misjudges the rule)
     predicted = sep.predicted_rate if trial is None else trial.expected_rate()
     return TestDesign(name, description, round(hours, 3), int(test_plan.get("runs", 1)), orientation,
@@ -236,6 +237,7 @@ def plan_test(loaded: LoadedScenario, finding: dict | None, settings: PlanSettin
 def _plan_test(loaded: LoadedScenario, finding: dict | None, s: PlanSettings,
                progress: Callable[[int, int], None] | None, client) -> tuple[PlanResult, dict]:
     """:func:`plan_test` on a Dask ``client`` (None: local processes)."""
+    start = time.perf_counter()
     hyps = rivals_of(finding, s.rivals)
     base = base_scenario(loaded, finding)
     programs = candidate_programs(s.limits, s.budget_h, start_c=loaded.scenario.program.start_c)
@@ -279,6 +281,7 @@ def _plan_test(loaded: LoadedScenario, finding: dict | None, s: PlanSettings,
                       for j, (n, d, _, tp, h) in enumerate(obvious))
     scenario = with_program(base, best.program(), best.test_plan())
     check = base_check = None
+    designed = time.perf_counter()
     if s.check_seeds > 0:
         check = check_plan(scenario, hyps, s.check_seeds, design.predicted_rate, runner=run)
         if check_base:
@@ -288,8 +291,9 @@ def _plan_test(loaded: LoadedScenario, finding: dict | None, s: PlanSettings,
         rivals=tuple(RivalRecord(h.effect, h.source, h.values) for h in hyps), set_aside=tuple(sorted(unseen)),
         budget_h=s.budget_h, candidates_evaluated=len(programs), plan=design,
         program=program_table(best.start_c, best.steps()), amplitude_ci95=best_sep.amplitude_ci95,
-        baselines=baselines, why=_why(design, baselines), check=check, baseline_check=base_check)
-    leading = next((h for h in hyps if h.effect != NONE), hyps[0])
+        baselines=baselines, why=_why(design, baselines), check=check, baseline_check=base_check,
+        design_wall_s=designed - start, check_wall_s=time.perf_counter() - designed)
+    leading = next((h for h in hyps if h.effect not in NULLS), hyps[0])
     return result, with_hypothesis(scenario, leading)
 
 
@@ -339,7 +343,7 @@ def _invisible(hyps: list[Hypothesis], seps: list[Separation]) -> set[str]:
     TwinError
         Fewer than two rivals would remain.
     """
-    unseen = {h.effect for h in hyps if h.effect != NONE and max(sep.own_evidence[h.effect] for sep in seps) < DETECT_BIC}
+    unseen = {h.effect for h in hyps if h.effect not in NULLS and max(sep.own_evidence[h.effect] for sep in seps) < DETECT_BIC}
     if len(hyps) - len(unseen) < 2:
         raise TwinError("no test within the budget and the chamber's limits makes "
                         f"{', '.join(sorted(unseen))} visible against the twin: a chamber program cannot "

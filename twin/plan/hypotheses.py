@@ -2,9 +2,11 @@
 data the finding came from (docs/plan.md §1).
 
 A :class:`Hypothesis` is the twin plus one registered effect at the values the finding estimated
-(its screening grid point and amplitudes, with their 95 % intervals), or the twin alone (``none``:
-nothing is missing, what looked like an effect is the model's own tempco). A temperature-slot effect
-(the die lag) is simulated through the thermal chain, as a device gets its lag.
+(its screening grid point and amplitudes, with their 95 % intervals), the twin alone (``none``:
+nothing is missing, what looked like an effect is the model's own tempco), or the twin with a
+wandering bias (``bias_random_walk``: no effect is missing, the sensor's bias drifts at random by as
+much as the named effect explained). A temperature-slot effect (the die lag) is simulated through
+the thermal chain, as a device gets its lag.
 """
 
 from __future__ import annotations
@@ -18,6 +20,13 @@ from twin.errors import TwinError
 
 #: the hypothesis "nothing is missing"
 NONE = "none"
+#: the hypothesis "the bias wanders": no effect, a Gauss–Markov bias (a random walk over times
+#: shorter than its correlation time) as large as what the finding's named effect explained
+WALK = "bias_random_walk"
+#: hypotheses that add no effect: when one is true, the diagnosis is right to name nothing
+NULLS = (NONE, WALK)
+#: the wander's correlation time without a finding's effect to match [s]: hours, as creep and aging
+WALK_TAU_S = 10800.0
 #: spread of a nonlinear parameter's draws around the finding's grid point: the screening grids step
 #: by about ×3, so the estimate is known to within about ×√3 either way
 NONLINEAR_SPREAD = 1.7
@@ -58,6 +67,8 @@ class Hypothesis:
         """
         if self.effect == NONE:
             return {}
+        if self.effect == WALK:  # both scales are uncertain by about as much as a grid step
+            return {k: float(v * NONLINEAR_SPREAD ** rng.uniform(-1.0, 1.0)) for k, v in self.values.items()}
         out = dict(self.values)
         for p in get_effect(self.effect).parameters:
             if p.name not in out:
@@ -68,6 +79,50 @@ class Hypothesis:
                 out[p.name] = float(out[p.name] * NONLINEAR_SPREAD ** rng.uniform(-1.0, 1.0))
             out[p.name] = float(np.clip(out[p.name], *p.bounds))
         return out
+
+
+def named_when_true(effect: str) -> str:
+    """What the diagnosis should name first when ``effect`` is true: the effect, or ``none`` for a
+    hypothesis that adds no effect (:data:`NULLS`).
+
+    Parameters
+    ----------
+    effect : str
+
+    Returns
+    -------
+    str
+    """
+    return NONE if effect in NULLS else effect
+
+
+def walk_hypothesis(finding: dict | None, source: str = "given") -> Hypothesis:
+    """A wandering bias as large as what the finding's named effect explained.
+
+    The wander's standard deviation is the residual the effect removed, √(rms_twin² − rms_after²)
+    (``rms_residual_g``, ``rms_after_selected_g``); its correlation time is the named effect's time
+    constant where it has one (``tau_s``), else :data:`WALK_TAU_S`. Without a finding: 1 mg over
+    :data:`WALK_TAU_S`.
+
+    Parameters
+    ----------
+    finding : dict, optional
+        A ``twin compare --json`` result of one axis.
+    source : str
+
+    Returns
+    -------
+    Hypothesis
+    """
+    sigma_mg, tau_s = 1.0, WALK_TAU_S
+    if finding:
+        before, after = finding.get("rms_residual_g"), finding.get("rms_after_selected_g")
+        if before and after and before > after:
+            sigma_mg = 1e3 * float(np.sqrt(before ** 2 - after ** 2))
+        named = {c["effect"]: c for c in finding.get("candidates", [])}.get(next(iter(finding.get("selected", [])), ""))
+        tau = ((named or {}).get("parameters_refined") or (named or {}).get("parameters") or {}).get("tau_s")
+        tau_s = float(tau) if tau else tau_s
+    return Hypothesis(WALK, {"bias_instability_mg": sigma_mg, "bias_instability_tau_s": tau_s}, source=source)
 
 
 def default_hypothesis(effect: str, source: str = "given") -> Hypothesis:
@@ -90,6 +145,8 @@ def default_hypothesis(effect: str, source: str = "given") -> Hypothesis:
     """
     if effect == NONE:
         return Hypothesis(NONE, source=source)
+    if effect == WALK:
+        return walk_hypothesis(None, source)
     try:
         cls = get_effect(effect)
     except Exception as exc:  # noqa: BLE001 - the registry's one-line "did you mean"
@@ -121,7 +178,7 @@ def hypotheses_from_finding(finding: dict, rivals: list[str] | None = None) -> l
     finding : dict
         A ``twin compare --json`` result of one axis.
     rivals : list of str, optional
-        Effects to separate instead.
+        Effects to separate instead (``none`` and ``bias_random_walk`` allowed).
 
     Returns
     -------
@@ -137,6 +194,8 @@ def hypotheses_from_finding(finding: dict, rivals: list[str] | None = None) -> l
     model = set(finding.get("effects", []))
 
     def hyp(effect: str, source: str) -> Hypothesis:
+        if effect == WALK:
+            return walk_hypothesis(finding, source)
         if effect in model:
             raise TwinError(f"--rivals: {effect} is already in the twin's model; name effects it lacks, or none")
         return _from_candidate(cands[effect], source) if effect in cands else default_hypothesis(effect, source)

@@ -142,6 +142,10 @@ class PlanResult:
         The plan simulated with each rival as truth and diagnosed blind.
     baseline_check : tuple of CheckRate, optional
         The same for the scenario's protocol repeated, when asked.
+    design_wall_s : float
+        Wall-clock time of the design: the candidates scored and the finalists' trials [s].
+    check_wall_s : float
+        Wall-clock time of the check, the baseline's included [s].
     """
 
     rivals: tuple[RivalRecord, ...]
@@ -156,6 +160,8 @@ class PlanResult:
     scenario: str | None = None
     check: tuple[CheckRate, ...] | None = None
     baseline_check: tuple[CheckRate, ...] | None = None
+    design_wall_s: float = 0.0
+    check_wall_s: float = 0.0
 
     def to_json(self) -> dict:
         """The JSON of ``twin plan --json``.

@@ -16,7 +16,7 @@ import yaml
 from sim.sensor import logger_white_sigma_g
 from twin.effects import get_effect
 from twin.model.scenario import LoadedScenario, parse_scenario
-from twin.plan.hypotheses import NONE, Hypothesis
+from twin.plan.hypotheses import NONE, WALK, Hypothesis
 
 #: die time constant behind the board when no lag is hypothesised [s]: short against any ramp
 NO_LAG_S = 1.0
@@ -125,7 +125,8 @@ def with_program(base: dict, program: dict, test_plan: dict) -> dict:
 
 
 def with_hypothesis(scenario: dict, hyp: Hypothesis, values: dict[str, float] | None = None) -> dict:
-    """``scenario`` with ``hyp`` in the device (a die lag through the thermal chain).
+    """``scenario`` with ``hyp`` in the device (a die lag through the thermal chain, a wandering bias
+    in the sensor).
 
     Parameters
     ----------
@@ -143,6 +144,9 @@ def with_hypothesis(scenario: dict, hyp: Hypothesis, values: dict[str, float] | 
     if hyp.effect == NONE:
         return out
     values = hyp.values if values is None else values
+    if hyp.effect == WALK:  # the sensor's bias instability, overridden
+        out["device"]["sensor"].update({k: float(v) for k, v in values.items()})
+        return out
     if get_effect(hyp.effect).slot == "temperature":
         out["chamber"]["lumped"]["die_tau_s"] = float(values.get("tau_s", get_effect(hyp.effect).parameters[0].default))
     else:

@@ -29,7 +29,7 @@ from twin.estimation.linalg import orthonormal_basis
 from twin.estimation.problem import DiagnosisConfig, Problem
 from twin.measurement import from_dataset
 from twin.model.simulate import simulate
-from twin.plan.hypotheses import NONE, Hypothesis
+from twin.plan.hypotheses import NULLS, Hypothesis
 from twin.model.scenario import LoadedScenario
 from twin.plan.scenarios import load, with_hypothesis
 
@@ -73,7 +73,7 @@ class Separation:
         best = ("", "", float("inf"))
         for i, a in enumerate(self.effects):
             for j, b in enumerate(self.effects):
-                if i != j and a != NONE and self.expected_delta_bic[i, j] < best[2]:
+                if i != j and a not in NULLS and self.expected_delta_bic[i, j] < best[2]:
                     best = (a, b, float(self.expected_delta_bic[i, j]))
         return best
 
@@ -144,7 +144,7 @@ class _Plan:
     def signal(self, hyp: Hypothesis, values: dict[str, float]) -> tuple[np.ndarray, float]:
         """fᵢ [g] for ``hyp`` at ``values`` (same seed: same thermometer and noise draws), and the
         probability that its held-out gain passes the decision rule."""
-        if hyp.effect == NONE:
+        if hyp.effect in NULLS:
             return np.zeros(self.problem.n), 0.0
         ds = simulate(load(with_hypothesis(self.scenario, hyp, values)), seed=self.seed)
         f = clean_output_g(ds) - self.clean0
@@ -212,7 +212,7 @@ class _Plan:
 
     def amplitude_ci95(self, hyp: Hypothesis) -> dict[str, float]:
         """Predicted 95 % half-widths of ``hyp``'s screened amplitudes [their unit]."""
-        if hyp.effect == NONE:
+        if hyp.effect in NULLS:
             return {}
         cls = get_effect(hyp.effect)
         nonlinear = {p.name: hyp.values.get(p.name, p.default) for p in cls.parameters if p.role == "nonlinear"}
@@ -251,7 +251,8 @@ def separation(scenario: dict, hyps: list[Hypothesis], draws: int = 3, seed: int
         Seed of the simulation and of the draws.
     walk : bool
         Predict detection on :data:`NOISE_REALISATIONS` noise realisations with the screen's random
-        walk retest (slower: the final candidates only).
+        walk retest (slower; the plan's finalists are tried by simulation instead,
+        :mod:`twin.plan.trials`).
 
     Returns
     -------
@@ -263,9 +264,9 @@ def separation(scenario: dict, hyps: list[Hypothesis], draws: int = 3, seed: int
     lam = np.zeros((len(hyps), len(hyps)))
     rates, evidence = {}, {}
     for i, h in enumerate(hyps):
-        if h.effect == NONE:
+        if h.effect in NULLS:
             continue
-        margin = np.array([DETECT_BIC if e == NONE else _margin(h.effect, e) for e in effects])
+        margin = np.array([DETECT_BIC if e in NULLS else _margin(h.effect, e) for e in effects])
         keep = np.arange(len(hyps)) != i
         rate = 0.0
         m = sum(p.role == "amplitude" and p.screen for p in get_effect(h.effect).parameters)
@@ -274,7 +275,7 @@ def separation(scenario: dict, hyps: list[Hypothesis], draws: int = 3, seed: int
             f_raw, p_gain = plan.signal(h, values)
             f = plan.off_model(f_raw)
             own = float(f @ f) / plan.sigma2
-            row = np.array([own if j == i or hyps[j].effect == NONE else
+            row = np.array([own if j == i or hyps[j].effect in NULLS else
                             lack_of_fit(f, plan.spaces(hyps[j].effect)) / plan.sigma2 for j in range(len(hyps))])
             lam[i] += row / draws
             evidence[h.effect] = evidence.get(h.effect, 0.0) + (own + m - m * np.log(plan.rows)) / draws
@@ -284,7 +285,7 @@ def separation(scenario: dict, hyps: list[Hypothesis], draws: int = 3, seed: int
             rate += p_gain * p_detect * _rate(row[keep], margin[keep]) / draws
         lam[i, i] = 0.0
         rates[h.effect] = rate
-    return Separation(effects, lam, rates, {h.effect: plan.amplitude_ci95(h) for h in hyps if h.effect != NONE},
+    return Separation(effects, lam, rates, {h.effect: plan.amplitude_ci95(h) for h in hyps if h.effect not in NULLS},
                       plan.rows, evidence)
 
 

@@ -36,7 +36,7 @@ from twin.arrays import run_slices
 from twin.estimation.linalg import orthonormal_basis
 from twin.estimation.noise import WALK_THETAS, WalkARModel, fit_ar, walk_filter
 from twin.plan.check import simulate_and_diagnose
-from twin.plan.hypotheses import NONE, Hypothesis
+from twin.plan.hypotheses import NONE, NULLS, Hypothesis, named_when_true
 
 #: first seed of the trials: the check starts at 1000, so the two never share a simulated test
 TRIAL_FIRST_SEED = 500
@@ -88,7 +88,7 @@ class TrialScore:
         -------
         dict of str to float
         """
-        return {e: sum(o.named == e for o in out) / len(out) for e, out in self.outcomes.items() if out}
+        return {e: sum(o.named == named_when_true(e) for o in out) / len(out) for e, out in self.outcomes.items() if out}
 
     def expected_rate(self) -> dict[str, float]:
         """Rival → the rate extrapolated from the margins (module docstring) [1]: P(gain passes) ×
@@ -102,7 +102,7 @@ class TrialScore:
         out = {}
         for e, runs in self.outcomes.items():
             n = len(runs)
-            if e == NONE:
+            if e in NULLS:
                 out[e] = (sum(o.named == NONE for o in runs) + 1) / (n + 2)
                 continue
             other = sum(o.passed and o.named != e for o in runs)
@@ -149,7 +149,7 @@ def trial(job: tuple[dict, Hypothesis, int]) -> Outcome:
     d = simulate_and_diagnose(job)
     named = d.selected[0].effect if d.selected else NONE
     c = next((c for c in d.candidates if c.effect == hyp.effect), None)
-    if hyp.effect == NONE:
+    if hyp.effect in NULLS:
         return Outcome(named, not any(x.significant for x in d.candidates), math.nan, math.nan)
     if c is None or c.columns_full is None:
         return Outcome(named, False, -math.inf, -math.inf)
