@@ -119,9 +119,9 @@ def walk_hypothesis(finding: dict | None, source: str = "given") -> Hypothesis:
         before, after = finding.get("rms_residual_g"), finding.get("rms_after_selected_g")
         if before and after and before > after:
             sigma_mg = 1e3 * float(np.sqrt(before ** 2 - after ** 2))
-        named = {c["effect"]: c for c in finding.get("candidates", [])}.get(next(iter(finding.get("selected", [])), ""))
-        tau = ((named or {}).get("parameters_refined") or (named or {}).get("parameters") or {}).get("tau_s")
-        tau_s = float(tau) if tau else tau_s
+        selected = finding.get("selected") or [None]
+        named = next((c for c in finding.get("candidates", []) if c["effect"] == selected[0]), {})
+        tau_s = float((named.get("parameters_refined") or named.get("parameters") or {}).get("tau_s") or tau_s)
     return Hypothesis(WALK, {"bias_instability_mg": sigma_mg, "bias_instability_tau_s": tau_s}, source=source)
 
 
