@@ -64,7 +64,7 @@ def plan_command(
     check_seeds: Annotated[int, typer.Option("--check-seeds", min=0, max=10_000, help="simulated tests per rival in the check (0: no check)")] = 20,
     check_baseline: Annotated[bool, typer.Option("--check-baseline", help="check the scenario's protocol repeated as well")] = False,
     draws: Annotated[int, typer.Option("--draws", min=1, max=100, help="parameter draws per rival in the expected separation")] = 3,
-    finalists: Annotated[int, typer.Option("--finalists", min=0, max=1000, help="best candidates scored again with the random-walk retest (0: none)")] = 6,
+    finalists: Annotated[int, typer.Option("--finalists", min=0, max=1000, help="best candidates raced by simulation through the blind diagnosis, each at every logger rate (0: none: the best by expected separation)")] = 6,
     seed: Annotated[int, typer.Option("--seed", min=0, help="seed of the simulations and draws")] = 0,
     workers: Annotated[int, typer.Option("--workers", min=1, max=256, help="parallel processes")] = 1,
     executor: Annotated[str, typer.Option("--executor", help="local or dask")] = "local",
@@ -97,7 +97,7 @@ def plan_command(
     draws : int
         Parameter draws per rival.
     finalists : int
-        Best candidates scored again with the random-walk retest.
+        Best candidates raced by simulation through the blind diagnosis, each at every logger rate.
     seed : int
     workers : int
     executor : {"local", "dask"}
