@@ -7,6 +7,7 @@ to 20, prewhitening per run *without dropping the first samples* (power-on trans
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -282,9 +283,42 @@ def fit_walk_ar(A: np.ndarray, y: np.ndarray, run_index: np.ndarray, max_order: 
         θ from :data:`WALK_THETAS` and the AR model of the walk-filtered residual.
     """
     A = np.asarray(A, float).reshape(len(y), -1)
+    best, best_crit = None, np.inf
+    for model, crit in walk_ar_criteria(A, y, run_index, max_order):
+        if crit < best_crit:
+            best, best_crit = model, crit
+    if best is not None:
+        return best
+    r_ols = y - A @ np.linalg.lstsq(A, y, rcond=None)[0]
+    return WalkARModel(1.0, fit_ar(r_ols, run_index, max_order))
+
+
+def walk_ar_criteria(A: np.ndarray, y: np.ndarray, run_index: np.ndarray,
+                     max_order: int = 20) -> Iterator[tuple[WalkARModel, float]]:
+    """Each walk + AR noise model of :func:`fit_walk_ar` (one per θ of :data:`WALK_THETAS`) with its
+    restricted-likelihood criterion (smaller is better); a θ whose prewhitened fit is degenerate is
+    left out.
+
+    Parameters
+    ----------
+    A : np.ndarray
+        Regressors (n × k).
+    y : np.ndarray
+        Target (n,) [any unit].
+    run_index : np.ndarray
+        Run of each row.
+    max_order : int
+        Largest AR order.
+
+    Yields
+    ------
+    model : WalkARModel
+    criterion : float
+        −2 × restricted log-likelihood plus the BIC penalty on the walk and the AR order [1].
+    """
+    A = np.asarray(A, float).reshape(len(y), -1)
     r_ols = y - A @ np.linalg.lstsq(A, y, rcond=None)[0]
     n, k = A.shape
-    best, best_crit = None, np.inf
     for theta in WALK_THETAS:
         ar = fit_ar(walk_filter(r_ols, run_index, theta), run_index, max_order)
         model = WalkARModel(theta, ar)
@@ -296,10 +330,7 @@ def fit_walk_ar(A: np.ndarray, y: np.ndarray, run_index: np.ndarray, max_order: 
         # the first p innovations of each run have their own variances (ARModel.prewhiten rescales them)
         head = sum(np.log(s2 / ar.sigma2) for run in run_slices(run_index)
                    for _, s2 in ar.partial[: run.stop - run.start]) if ar.sigma2 > 0 else 0.0
-        crit = (n - k) * np.log(rss / (n - k)) + head + logdet + (ar.order + (theta < 1)) * np.log(n)
-        if crit < best_crit:
-            best, best_crit = model, crit
-    return best if best is not None else WalkARModel(1.0, fit_ar(r_ols, run_index, max_order))
+        yield model, (n - k) * np.log(rss / (n - k)) + head + logdet + (ar.order + (theta < 1)) * np.log(n)
 
 
 def white_noise_sigma_from_differences(r: np.ndarray, run_index: np.ndarray) -> float:

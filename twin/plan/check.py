@@ -65,7 +65,20 @@ def diagnose_once(job: tuple[dict, Hypothesis, int]) -> str:
     str
         The effect named first, or ``none``.
     """
-    d = simulate_and_diagnose(job)
+    return named_first(simulate_and_diagnose(job))
+
+
+def named_first(d) -> str:
+    """The effect a diagnosis named first, or ``none``.
+
+    Parameters
+    ----------
+    d : twin.diagnosis.diagnose.Diagnosis
+
+    Returns
+    -------
+    str
+    """
     return d.selected[0].effect if d.selected else NONE
 
 

@@ -32,10 +32,9 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
-from twin.arrays import run_slices
 from twin.estimation.linalg import orthonormal_basis
-from twin.estimation.noise import WALK_THETAS, WalkARModel, fit_ar, walk_filter
-from twin.plan.check import simulate_and_diagnose
+from twin.estimation.noise import WalkARModel, walk_ar_criteria
+from twin.plan.check import named_first, simulate_and_diagnose
 from twin.plan.hypotheses import NONE, NULLS, Hypothesis, named_when_true
 
 #: first seed of the trials: the check starts at 1000, so the two never share a simulated test
@@ -147,7 +146,7 @@ def trial(job: tuple[dict, Hypothesis, int]) -> Outcome:
     """
     hyp = job[1]
     d = simulate_and_diagnose(job)
-    named = d.selected[0].effect if d.selected else NONE
+    named = named_first(d)
     c = next((c for c in d.candidates if c.effect == hyp.effect), None)
     if hyp.effect in NULLS:
         return Outcome(named, not any(x.significant for x in d.candidates), math.nan, math.nan)
@@ -159,9 +158,9 @@ def trial(job: tuple[dict, Hypothesis, int]) -> Outcome:
 
 def walk_margin(d, c) -> float:
     """The random-walk retest's margin for candidate ``c`` on the diagnosis ``d``'s data: over the
-    walk + AR noise models of :func:`twin.estimation.noise.fit_walk_ar` (whose restricted-likelihood
-    criterion this repeats), the least criterion of a model that leaves ``c``'s ΔBIC under the
-    rule's minimum, less the least of one that keeps it above.
+    walk + AR noise models the retest chooses among (:func:`twin.estimation.noise.walk_ar_criteria`,
+    the criterion of :func:`~twin.estimation.noise.fit_walk_ar`), the least criterion of a model
+    that leaves ``c``'s ΔBIC under the rule's minimum, less the least of one that keeps it above.
 
     Parameters
     ----------
@@ -175,23 +174,10 @@ def walk_margin(d, c) -> float:
         [1]; +inf where no model takes the evidence, −inf where none leaves it.
     """
     problem, cal = d.problem, d.fit
-    runs, order = problem.run_avg, problem.config.max_ar_order
+    runs = problem.run_avg
     J, X, y = problem.avg(cal.X_full), problem.avg(c.columns_full), problem.avg(problem.y - cal.fixed_full)
-    A = np.column_stack([J, X])
-    r = y - A @ np.linalg.lstsq(A, y, rcond=None)[0]
-    n, k = A.shape
     best = {True: math.inf, False: math.inf}  # keeps the evidence → least criterion
-    for theta in WALK_THETAS:
-        ar = fit_ar(walk_filter(r, runs, theta), runs, order)
-        model = WalkARModel(theta, ar)
-        Aw, yw = model.prewhiten(A, runs), model.prewhiten(y, runs)
-        rss = float(np.sum((yw - Aw @ np.linalg.lstsq(Aw, yw, rcond=None)[0]) ** 2))
-        sign, logdet = np.linalg.slogdet(Aw.T @ Aw)
-        if rss <= 0 or sign <= 0:
-            continue
-        head = sum(np.log(s2 / ar.sigma2) for run in run_slices(runs)
-                   for _, s2 in ar.partial[: run.stop - run.start]) if ar.sigma2 > 0 else 0.0
-        crit = (n - k) * np.log(rss / (n - k)) + head + logdet + (ar.order + (theta < 1)) * np.log(n)
+    for model, crit in walk_ar_criteria(np.column_stack([J, X]), y, runs, problem.config.max_ar_order):
         keeps = _delta_bic(model, J, X, y, runs) > problem.config.min_delta_bic
         best[keeps] = min(best[keeps], crit)
     return best[False] - best[True] if math.isfinite(best[True]) else -math.inf
