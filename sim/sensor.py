@@ -18,7 +18,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
+
+from sim.recursion import first_order_filter
 
 REGISTER_BITS = 16  # the output register the data are left-justified in
 
@@ -167,7 +168,7 @@ def gauss_markov(n: int, dt_s: float, sigma: float, tau_s: float, rng: np.random
     phi = np.exp(-dt_s / tau_s)
     w = rng.standard_normal(n)
     w[0] /= np.sqrt(1 - phi**2)  # so that x[0] = σ w0 has the stationary variance
-    return lfilter([sigma * np.sqrt(1 - phi**2)], [1.0, -phi], w)
+    return first_order_filter(w, sigma * np.sqrt(1 - phi**2), 0.0, phi)
 
 
 def quantise_digits(a_g: np.ndarray, sensitivity_mg_per_digit: float, bits: int) -> np.ndarray:

@@ -321,6 +321,39 @@ def test_large_file_path_gives_the_in_memory_arrays_bit_for_bit(case, tmp_path, 
     assert _same(chunks, in_memory)
 
 
+@pytest.mark.parametrize("banner, eol, cut", [("", "\n", True), ("", "\r\n", True), ("# rig 4\n", "\n", True),
+                                               ('# rig 4, "bay 2"\n', "\n", False)])
+def test_large_file_pieces_parsed_on_threads_give_the_whole_file(banner, eol, cut, tmp_path, chunked_reader,
+                                                                 monkeypatch):
+    """Cut into pieces of whole lines (about 7 rows each) and parsed on two threads, a log gives the
+    in-memory arrays bit for bit, blank lines at its end included; a quote in the banner (the
+    parser's lines may not be ours) sends it to one parser reading on."""
+    from twin.measurement import pieces as pc
+
+    force, taken = chunked_reader
+    pieces = []
+
+    def spy(path, head, start, parse, piece_bytes, real=pc.parsed_pieces):
+        pieces.append(piece_bytes)
+        return real(path, head, start, parse, piece_bytes)
+
+    monkeypatch.setattr(pc, "parsed_pieces", spy)
+    monkeypatch.setattr(pc, "parse_threads", lambda: 2)  # two threads on any runner
+    rows = [f"{i * 0.01:.2f},{20 + np.sin(i / 7):.4f},{1 + i * 1e-6:.7f},1,{i // 80},{int(i % 50 == 0)}"
+            for i in range(200)]
+    path = tmp_path / "log.csv"
+    path.write_bytes((banner + "time_s,temperature_c,output_g,applied_g,run,power_on\n" + "\n".join(rows)
+                      + "\n\n\n").replace("\n", eol).encode())
+    read = lambda: tm.read_table(path, tm.ColumnMap(skip_lines=banner.count("\n")))  # noqa: E731
+    force(False)
+    in_memory = _outcome(read)
+    force(True)
+    assert _same(_outcome(read), in_memory) and taken[-1] is not None
+    assert bool(pieces) == cut
+    if cut:
+        assert path.stat().st_size / pieces[-1] > 20  # many pieces
+
+
 @pytest.mark.parametrize("name", sorted(p.name for p in CORPUS.glob("*.csv")))
 @pytest.mark.parametrize("skip", [False, True])
 def test_large_file_path_gives_the_same_answer_on_every_bad_log(name, skip, chunked_reader):

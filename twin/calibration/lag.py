@@ -10,10 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 from sklearn.utils.validation import check_array, check_is_fitted, validate_data
 
 from sim.drift import lowpass_at
+from sim.recursion import first_order_filter
 from twin.arrays import run_slices
 from twin.errors import TwinError
 
@@ -211,7 +211,7 @@ def uniform_lag(u: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
     i0 = np.where(small, dt_s * (1 - lh / 2), -np.expm1(-lh) / lam_safe)
     i1 = np.where(small, dt_s * (0.5 - lh / 6), (1 - i0 / dt_s) / lam_safe)
     beta = lam[0]
-    z, _ = lfilter([beta * i1[0], beta * (i0 - i1)[0]], [1.0, -p[0]], u - u[0], zi=[0.0])
+    z = first_order_filter(u - u[0], beta * i1[0], beta * (i0 - i1)[0], p[0])
     z += u[0]
     return z
 
@@ -275,7 +275,7 @@ def _uniform_from(u: np.ndarray, dt_s: float, tau_s: float, y0: float) -> np.nda
     out = np.empty_like(u)
     out[0] = y0
     if u.size > 1:  # the filter's state after sample 0, about u[0]: b1·v0 + p·(y0 − u0), v0 = 0
-        out[1:], _ = lfilter(b, [1.0, -p], u[1:] - u[0], zi=[p * (y0 - u[0])])
+        out[1:] = first_order_filter(u[1:] - u[0], b[0], b[1], p, p * (y0 - u[0]))
         out[1:] += u[0]
     return out
 

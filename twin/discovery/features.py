@@ -23,7 +23,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 from scipy.ndimage import median_filter
-from scipy.signal import lfilter
+
+from sim.recursion import first_order_filter
 
 from twin.arrays import run_slices, temperature_rate_c_per_s
 from twin.estimation.noise import BlockAverager
@@ -181,7 +182,7 @@ def _lag(b: BlockInputs, tau_s: float) -> np.ndarray:
 
     def f(s):
         x = b.temp_c[s]
-        return lfilter([1 - a], [1, -a], x - x[0]) + x[0] - x
+        return first_order_filter(x - x[0], 1 - a, 0.0, a) + x[0] - x
     return _per_run(b, f)
 
 

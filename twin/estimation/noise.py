@@ -11,8 +11,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import lfilter
 
+from sim.recursion import first_order_filter
 from twin.arrays import run_slices
 
 
@@ -119,11 +119,21 @@ class ARModel:
         for run in run_slices(run_index):
             a, z = run.start, run.stop
             seg = x[a:z]
-            out[a:z] = lfilter(b, [1.0], seg, axis=0)
+            out[a:z] = _fir(b, seg)
             for t, (coef, s2) in enumerate(self.partial[: z - a]):
                 pred = np.tensordot(coef, seg[t - 1 :: -1][: t], axes=(0, 0)) if t else 0.0
                 out[a + t] = (seg[t] - pred) * np.sqrt(self.sigma2 / s2)
         return out
+
+
+def _fir(b: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Σ_k b[k]·x[t−k] along the first axis, zero before the start, summed as
+    ``scipy.signal.lfilter(b, [1], x, axis=0)`` sums it (b[0]·x[t] + (b[1]·x[t−1] + (…))), so the
+    same bits, without importing scipy.signal."""
+    acc = np.zeros_like(x)
+    for k in range(b.size - 1, 0, -1):
+        acc[k:] = b[k] * x[:-k] + acc[k:]
+    return b[0] * x + acc
 
 
 def _autocovariance(x: np.ndarray, run_index: np.ndarray, max_lag: int) -> np.ndarray:
@@ -221,7 +231,7 @@ def walk_filter(x: np.ndarray, run_index: np.ndarray, theta: float) -> np.ndarra
         return x
     out = np.empty_like(x)
     for run in run_slices(run_index):
-        out[run] = lfilter([1.0, -1.0], [1.0, -theta], x[run], axis=0)
+        out[run] = first_order_filter(x[run], 1.0, -1.0, theta)
     return out
 
 

@@ -16,8 +16,8 @@ import re
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import lfilter
 
+from sim.recursion import first_order_filter
 from twin.firmware.common import AXES, FirmwareCalError, c_float, check_polynomial, generator_name
 from twin.io import atomic_write_text
 
@@ -72,8 +72,7 @@ def die_temperature_lag(temperature_c, sample_rate_hz: float, tau_s: float) -> n
     if t.size == 0:
         return t.copy()
     # y[n] = (1 − α) y[n−1] + α x[n], with y[−1] = x[0] so that y[0] = x[0]
-    out, _ = lfilter([alpha], [1.0, alpha - 1.0], t, zi=[(1.0 - alpha) * t[0]])
-    return out
+    return first_order_filter(t, alpha, 0.0, -(alpha - 1.0), (1.0 - alpha) * t[0])  # the pole as −(α − 1), lfilter's
 
 
 def _method_note(cal) -> str:

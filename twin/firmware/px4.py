@@ -26,7 +26,6 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from scipy.signal import medfilt
 
 from twin.firmware.common import (
     ClampedPolynomial,
@@ -212,6 +211,8 @@ def median_filter(values: np.ndarray) -> np.ndarray:
     ndarray
         Filtered values [unit of ``values``].
     """
+    from scipy.signal import medfilt  # here: scipy.signal brings scipy.stats, half a second of every start
+
     return medfilt(np.asarray(values, dtype=float), MEDIAN_KERNEL)
 
 

@@ -2,11 +2,13 @@
 
 A week at 100 Hz is 60 M rows (2 GB of CSV). Read whole, the parser's six float64 columns
 (2.9 GB), its buffers and the copies made from them peaked at 7.9 GB. Here the same parser with
-the same options (pandas' C parser, every field float64) hands over :data:`CHUNK_ROWS` rows at a
-time, and each chunk is converted (time origin and unit, temperature and output units, run as
-int16, power as bool) into preallocated arrays of the final dtypes. The arithmetic is the same
-element by element, so the arrays are bit for bit those of the in-memory path
-(tests/test_readers.py); the parser is not changed, so no value can round differently.
+the same options (pandas' C parser, every field float64) reads about :data:`CHUNK_ROWS` rows at a
+time — pieces of whole lines parsed side by side on threads (:mod:`twin.measurement.pieces`) —
+and each chunk is checked and converted (time unit, temperature and output units, power as bool)
+on the thread that parsed it, then written in file order (time origin, run as int16) into
+preallocated arrays of the final dtypes. The arithmetic is the same element by element, so the
+arrays are bit for bit those of the in-memory path (tests/test_readers.py); the parser is not
+changed, so no value can round differently.
 
 Only clean files are read here. Anything else — a parse error, a ragged row, a missing or
 non-finite value, a missing column, a run or power flag that is not a whole number in range, fewer
@@ -19,7 +21,9 @@ in-memory path's values are the contract).
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
+from contextlib import AbstractContextManager
+from typing import Protocol
 from pathlib import Path
 
 import numpy as np
@@ -73,6 +77,28 @@ def is_large(path: Path) -> bool:
         return False
 
 
+def line_bytes(path: Path, first_line: int) -> float:
+    """Mean length [bytes] of the first megabyte's lines after the banner and header.
+
+    Parameters
+    ----------
+    path : Path
+        The delimited log.
+    first_line : int
+        File line (1-based) of the first data row.
+
+    Returns
+    -------
+    float
+        Bytes per line (at least 1).
+    """
+    with path.open("rb") as f:
+        for _ in range(first_line - 1):
+            f.readline()
+        sample = f.read(1 << 20)
+    return max(1.0, len(sample) / max(1, sample.count(b"\n")))
+
+
 def estimated_rows(path: Path, first_line: int) -> int:
     """Rows from the file size and the line length of its first megabyte (after the banner and
     header); later lines hold longer times, so this errs high, and untouched pages cost no memory.
@@ -89,13 +115,7 @@ def estimated_rows(path: Path, first_line: int) -> int:
     int
         Estimated rows, plus one chunk of margin.
     """
-    with path.open("rb") as f:
-        for _ in range(first_line - 1):
-            f.readline()
-        start = f.tell()
-        sample = f.read(1 << 20)
-    lines = max(1, sample.count(b"\n"))
-    return int((path.stat().st_size - start) / max(1.0, len(sample) / lines) * 1.1) + CHUNK_ROWS
+    return int(path.stat().st_size / line_bytes(path, first_line) * 1.1) + CHUNK_ROWS
 
 
 class _Columns:
@@ -121,12 +141,29 @@ class _Columns:
 NOT_CLEAN = (ValueError, TypeError, OverflowError, UnicodeDecodeError, OSError, MeasurementError)
 
 
-def gather_columns(path: Path, first_line: int, open_frames: Callable[[], Iterable], roles, position: Callable,
-                   dtypes: Callable[[set[str]], dict[str, type]],
-                   put: Callable[[dict[str, np.ndarray], dict[str, np.ndarray], int, int], bool],
-                   ) -> tuple[dict[str, np.ndarray], set[str], int] | None:
+class _Sink(Protocol):
+    """What :func:`gather_columns` does with each chunk's columns (role → float64 values):
+    ``dtypes(found)`` the arrays to allocate, role → dtype, given the roles found in the header;
+    ``prepare(values)`` one chunk's columns checked and converted, on the thread that parsed it
+    (no state; ``None`` when the chunk is not clean); ``put(prepared, out, a, b)`` a prepared
+    chunk written into rows ``a:b`` of the arrays, chunks in file order."""
+
+    def dtypes(self, found: set[str]) -> dict[str, type]: ...
+
+    def prepare(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray] | None: ...
+
+    def put(self, prepared: dict[str, np.ndarray], out: dict[str, np.ndarray], a: int, b: int) -> None: ...
+
+
+class _NotClean(ValueError):
+    """A chunk the chunked path gives up on (a required column missing)."""
+
+
+def gather_columns(path: Path, first_line: int, open_frames: Callable[[Callable], AbstractContextManager],
+                   roles, position: Callable, sink: _Sink) -> tuple[dict[str, np.ndarray], set[str], int] | None:
     """The needed columns of a file's float64 chunks gathered into arrays grown in place: the
-    parser's frame never holds more than one chunk. The one loop of every chunked path.
+    parser's frame never holds more than one chunk per parsing thread. The one loop of every
+    chunked path.
 
     Parameters
     ----------
@@ -135,16 +172,15 @@ def gather_columns(path: Path, first_line: int, open_frames: Callable[[], Iterab
     first_line : int
         The file line of the first data row.
     open_frames : callable
-        Returns the parser's chunks (DataFrames of float64 columns) as a context manager.
+        ``open_frames(prepare)``: a context manager of ``prepare(frame)`` for each of the parser's
+        chunks (DataFrames of float64 columns) in file order, ``prepare`` run where the chunk was
+        parsed (:mod:`twin.measurement.pieces`).
     roles : tuple
         ``(role, key, required)`` triples (:func:`~twin.measurement.from_columns.single_axis_roles`).
     position : callable
         ``position(columns, key)``: the index of the column ``key`` names, ``None`` if absent.
-    dtypes : callable
-        ``dtypes(found)``: the arrays to allocate, role → dtype, given the roles found in the header.
-    put : callable
-        ``put(values, out, a, b)``: writes one chunk's columns (role → float64 values) into rows
-        ``a:b`` of the arrays; False when the chunk is not clean.
+    sink : _Sink
+        Allocates, checks and converts, and writes the chunks' columns.
 
     Returns
     -------
@@ -154,69 +190,102 @@ def gather_columns(path: Path, first_line: int, open_frames: Callable[[], Iterab
     """
     import pandas as pd
 
-    store, wanted, n = None, None, 0
+    def prepare(frame) -> dict[str, np.ndarray] | None:
+        if not len(frame):
+            return {}
+        names = [str(c).strip() for c in frame.columns]
+        wanted = {role: position(names, key) for role, key, _ in roles if key is not None}
+        if any(wanted[role] is None for role, key, required in roles if key is not None and required):
+            raise _NotClean(f"{path}: a required column is missing")
+        return sink.prepare({role: frame.iloc[:, idx].to_numpy(np.float64) for role, idx in wanted.items()
+                             if idx is not None})
+
+    store, found, n = None, set(), 0
     try:
-        with open_frames() as frames:
-            for frame in frames:
-                if not len(frame):
-                    continue
-                if wanted is None:
-                    names = [str(c).strip() for c in frame.columns]
-                    wanted = {role: position(names, key) for role, key, _ in roles if key is not None}
-                    if any(wanted[role] is None for role, key, required in roles if key is not None and required):
-                        return None
-                    wanted = {role: idx for role, idx in wanted.items() if idx is not None}
-                    store = _Columns(estimated_rows(path, first_line), dtypes(set(wanted)))
-                values = {role: frame.iloc[:, idx].to_numpy(np.float64) for role, idx in wanted.items()}
-                store.ensure(n + len(frame))
-                if not put(values, store.arrays, n, n + len(frame)):
+        with open_frames(prepare) as chunks:
+            for values in chunks:
+                if values is None:
                     return None
-                n += len(frame)
-                del frame, values
+                if not values:
+                    continue
+                if store is None:
+                    found = set(values)
+                    store = _Columns(estimated_rows(path, first_line), sink.dtypes(found))
+                rows = next(iter(values.values())).size
+                store.ensure(n + rows)
+                sink.put(values, store.arrays, n, n + rows)
+                n += rows
+                del values
     except NOT_CLEAN + (pd.errors.ParserError, pd.errors.EmptyDataError):
         return None
     if store is None or not n:
         return None
-    return store.trim(n), set(wanted), n
-
-
-def _measurement_dtypes(found: set[str]) -> dict[str, type]:
-    """The final arrays of a :class:`Measurement`: run as int16, power as bool."""
-    return {"time": np.float64, "temperature": np.float64, "output": np.float64,
-            **({"applied": np.float64} if "applied" in found else {}), "run": np.int16, "power_on": bool}
+    return store.trim(n), found, n
 
 
 class _Converter:
-    """One chunk's columns checked and converted into the measurement's arrays (``put`` of
-    :func:`gather_columns`); holds the time origin, the first row's time, across chunks."""
+    """The chunks of a :class:`Measurement`: checked and converted (time scaled to seconds,
+    temperature and output units, power flags as bool) on the parsing thread, then written in file
+    order from the first row's time as origin (the one state across chunks)."""
 
     def __init__(self, cmap: ColumnMap, run: int):
         self.cmap, self.run, self.factor, self.t0 = cmap, run, time_factor_s(cmap.time_unit), None
 
-    def __call__(self, values: dict[str, np.ndarray], out: dict[str, np.ndarray], a: int, b: int) -> bool:
+    @staticmethod
+    def dtypes(found: set[str]) -> dict[str, type]:
+        """The final arrays: run as int16, power as bool."""
+        return {"time": np.float64, "temperature": np.float64, "output": np.float64,
+                **({"applied": np.float64} if "applied" in found else {}), "run": np.int16, "power_on": bool}
+
+    def prepare(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray] | None:
         if not all(np.isfinite(v).all() for v in values.values()):
-            return False
+            return None
         if "run" in values and not_whole_in_range(values["run"], 0, RUN_MAX).any():
-            return False
+            return None
         if "power_on" in values and not_whole_in_range(values["power_on"], 0, 1).any():
-            return False
-        if "time" in values:
-            t = values["time"] * self.factor if self.factor != 1.0 else values["time"]  # x·1 == x: no copy
+            return None
+        out = dict(values, temperature=convert_temperature_c(values["temperature"], self.cmap),
+                   output=convert_output(values["output"], self.cmap))
+        if "time" in values and self.factor != 1.0:  # x·1 == x: no copy
+            out["time"] = values["time"] * self.factor
+        if "power_on" in values:
+            out["power_on"] = values["power_on"] != 0.0
+        return out
+
+    def put(self, prepared: dict[str, np.ndarray], out: dict[str, np.ndarray], a: int, b: int) -> None:
+        if "time" in prepared:
+            t = prepared["time"]
             self.t0 = t[0] if self.t0 is None else self.t0
             np.subtract(t, self.t0, out=out["time"][a:b])
-        out["temperature"][a:b] = convert_temperature_c(values["temperature"], self.cmap)
-        out["output"][a:b] = convert_output(values["output"], self.cmap)
-        if "applied" in values:
-            out["applied"][a:b] = values["applied"]
-        out["run"][a:b] = values["run"] if "run" in values else self.run
-        if "power_on" in values:
-            np.not_equal(values["power_on"], 0.0, out=out["power_on"][a:b])
-        else:
-            out["power_on"][a:b] = False
-        return True
+        for role in ("temperature", "output", "applied"):
+            if role in prepared:
+                out[role][a:b] = prepared[role]
+        out["run"][a:b] = prepared["run"] if "run" in prepared else self.run
+        out["power_on"][a:b] = prepared["power_on"] if "power_on" in prepared else False
 
 
-def measurement_from_chunks(path: Path, cmap: ColumnMap, open_frames: Callable[[], Iterable], roles,
+class _Copy:
+    """The chunks' columns as they are, float64 (a :class:`_Sink`; the caller checks them)."""
+
+    @staticmethod
+    def dtypes(found: set[str]) -> dict[str, type]:
+        return dict.fromkeys(found, np.float64)
+
+    @staticmethod
+    def prepare(values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return values
+
+    @staticmethod
+    def put(prepared: dict[str, np.ndarray], out: dict[str, np.ndarray], a: int, b: int) -> None:
+        for role, v in prepared.items():
+            out[role][a:b] = v
+
+
+#: the sink of :func:`twin.measurement.delimited` 's 3-axis tables: the columns copied as they are
+COPY = _Copy()
+
+
+def measurement_from_chunks(path: Path, cmap: ColumnMap, open_frames: Callable[[Callable], AbstractContextManager], roles,
                             position: Callable, first_line: int, run: int = 0,
                             applied_g: float | None = None) -> Measurement | None:
     """A checked :class:`Measurement` from a clean file's float64 chunks, or ``None`` (module docstring).
@@ -243,8 +312,7 @@ def measurement_from_chunks(path: Path, cmap: ColumnMap, open_frames: Callable[[
     Measurement or None
         Time [s], temperature [°C], output [g] …; ``None`` when the file is not clean.
     """
-    gathered = gather_columns(path, first_line, open_frames, roles, position, _measurement_dtypes,
-                              _Converter(cmap, run))
+    gathered = gather_columns(path, first_line, open_frames, roles, position, _Converter(cmap, run))
     if gathered is None or gathered[2] < MIN_ROWS:
         return None
     arrays, found, n = gathered

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.measurement import chunked
+from twin.measurement import chunked, pieces
 from twin.measurement.columns import ColumnMap
 from twin.measurement.core import Measurement, MeasurementError
 from twin.measurement.from_columns import (
@@ -112,10 +112,12 @@ def _layout(path: Path, cmap: ColumnMap) -> _Layout:
     return _Layout(sep, names, cmap.skip_lines + (2 if cmap.header else 1))
 
 
-def _read_csv(path: Path, cmap: ColumnMap, layout: _Layout, skip_bad_rows: bool, **kwargs):
+def _read_csv(path, cmap: ColumnMap, layout: _Layout, skip_bad_rows: bool, skiprows: int | None = None, **kwargs):
+    """pandas' C parser with the options of every path; ``path`` may be a buffer (then ``skiprows=0``)."""
     import pandas as pd
 
-    return pd.read_csv(path, sep=layout.sep, skiprows=cmap.skip_lines, header=0 if cmap.header else None,
+    skiprows = cmap.skip_lines if skiprows is None else skiprows
+    return pd.read_csv(path, sep=layout.sep, skiprows=skiprows, header=0 if cmap.header else None,
                        names=layout.names, engine="c" if layout.sep != r"\s+" else "python",
                        on_bad_lines="skip" if skip_bad_rows else "error", skipinitialspace=True,
                        encoding="utf-8", **kwargs)
@@ -202,23 +204,34 @@ def _fast_values(path: Path, cmap: ColumnMap, layout: _Layout, roles, skip_bad_r
 
 
 def _chunk_opener(path: Path, cmap: ColumnMap, layout: _Layout, skip_bad_rows: bool):
-    """Opens the fast path's parser, every field float64, :data:`~twin.measurement.chunked.CHUNK_ROWS` rows at a time."""
-    return lambda: _read_csv(path, cmap, layout, skip_bad_rows, dtype=np.float64, chunksize=chunked.CHUNK_ROWS)
+    """``open_frames`` of the fast path's parser, every field float64, about
+    :data:`~twin.measurement.chunked.CHUNK_ROWS` rows at a time: pieces of whole lines behind the
+    header line, parsed on threads (:mod:`twin.measurement.pieces`), or one parser reading on
+    where the head cannot be cut."""
+    head = pieces.data_head(path, cmap.skip_lines, cmap.header)
+    if head is None:
+        return pieces.read_on(lambda: _read_csv(path, cmap, layout, skip_bad_rows, dtype=np.float64,
+                                                chunksize=chunked.CHUNK_ROWS))
+    header, start = head
+
+    def parse(buffer):
+        import pandas as pd
+
+        frame = _read_csv(buffer, cmap, layout, skip_bad_rows, skiprows=0, dtype=np.float64)
+        if not isinstance(frame.index, pd.RangeIndex):  # a first row with one field more: read as an index
+            raise ValueError("a row with more fields than the header")
+        return frame
+
+    piece_bytes = max(1, int(chunked.CHUNK_ROWS * chunked.line_bytes(path, layout.first_line)))
+    return pieces.in_pieces(path, header, start, parse, piece_bytes)
 
 
 def _chunked_values(path: Path, cmap: ColumnMap, layout: _Layout, roles, skip_bad_rows: bool) -> dict | None:
     """:func:`_fast_values` of a large file, its needed columns gathered chunk by chunk
     (:func:`~twin.measurement.chunked.gather_columns`; bit for bit the same values: the same
     parser, options and dtype)."""
-
-    def put(values, out, a, b):
-        for role, v in values.items():
-            out[role][a:b] = v
-        return True
-
     gathered = chunked.gather_columns(path, layout.first_line, _chunk_opener(path, cmap, layout, skip_bad_rows),
-                                      roles, _position,
-                                      lambda found: dict.fromkeys(found, np.float64), put)
+                                      roles, _position, chunked.COPY)
     return None if gathered is None else gathered[0]
 
 

@@ -1,0 +1,51 @@
+"""sim.recursion: the one-pole recursion without scipy.signal, against lfilter and the analytic
+impulse response; and the start of the commands stays free of scipy.signal and scipy.stats."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from conftest import ROOT
+from sim.recursion import first_order_filter, one_pole
+
+
+@pytest.mark.parametrize("shape", [(1,), (2,), (4000,), (3000, 3)])
+@pytest.mark.parametrize("pole", [0.0, 0.3, -0.7, 0.999999, 1.0])
+def test_one_pole_is_lfilter_bit_for_bit(shape, pole):
+    u = np.random.default_rng(7).standard_normal(shape)
+    y = one_pole(u, pole)
+    assert np.array_equal(y, lfilter([1.0], [1.0, -pole], u, axis=0)) and y.flags.c_contiguous
+
+
+def test_one_pole_impulse_response_is_the_geometric_series():
+    u = np.zeros(60)
+    u[0] = 1.0
+    np.testing.assert_allclose(one_pole(u, 0.9), 0.9 ** np.arange(60), rtol=1e-13)
+
+
+@pytest.mark.parametrize("b0, b1, pole, initial", [(0.3, 0.0, 0.9, 0.0), (0.3, 0.0, 0.9, 0.4),
+                                                   (1.0, -1.0, 0.95, 0.0), (0.2, 0.5, -0.3, 0.7)])
+def test_first_order_filter_is_lfilter(b0, b1, pole, initial):
+    """Bit for bit without the lagged term; a rounding apart (10 ulp of the output) with it."""
+    x = np.random.default_rng(3).standard_normal((2000, 2))
+    ref, _ = lfilter([b0, b1], [1.0, -pole], x, axis=0, zi=np.full((1, 2), initial))
+    y = first_order_filter(x, b0, b1, pole, initial)
+    if b1 == 0.0:
+        assert np.array_equal(y, ref)
+    np.testing.assert_allclose(y, ref, rtol=0, atol=10 * np.spacing(np.abs(ref).max()))
+
+
+def test_empty_input():
+    assert one_pole(np.zeros(0), 0.5).shape == (0,) and first_order_filter(np.zeros((0, 3)), 1, 0, 0.5).shape == (0, 3)
+
+
+def test_the_compare_start_imports_neither_scipy_signal_nor_scipy_stats():
+    """scipy.signal brings scipy.stats: together half a second of every command's start (measured
+    with ``python -X importtime``); nothing `twin compare` loads at start needs them."""
+    code = ("import sys, twin.cli, twin.workflows.compare, twin.workflows.calibrate; "
+            "print(sorted(m for m in ('scipy.signal', 'scipy.stats') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert out.stdout.strip() == "[]"
