@@ -3,6 +3,7 @@ impulse response; and the start of the commands stays free of scipy.signal and s
 
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -49,3 +50,17 @@ def test_the_compare_start_imports_neither_scipy_signal_nor_scipy_stats():
             "print(sorted(m for m in ('scipy.signal', 'scipy.stats') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
     assert out.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("n", [1, 30, 31, 32, 1000])
+def test_px4_median_filter_is_medfilt(n):
+    """PX4's script filters with scipy.signal.medfilt(x, 31); ours takes scipy.ndimage's median over
+    the same zero-padded windows."""
+    from scipy.signal import medfilt
+
+    from twin.firmware.px4 import median_filter
+
+    x = np.random.default_rng(n).standard_normal(n) * 3 + 9.8
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # medfilt warns when the window is longer than the series
+        assert np.array_equal(median_filter(x), medfilt(x, 31))
