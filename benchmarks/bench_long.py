@@ -197,10 +197,10 @@ print(json.dumps(spent))
 """
 
 
-def stages(csv: Path, out: Path) -> dict:
+def stages(csv: Path, out: Path, scenario: Path = SCENARIO) -> dict:
     """Where one ``twin compare`` spends its wall time: imports, the read, the decimation to 10-Hz
     means, the diagnosis on them, the full-rate figures, and the rest (scenario, finding, JSON)."""
-    r = subprocess.run([sys.executable, "-c", STAGES, str(SCENARIO), str(csv), str(out)], capture_output=True,
+    r = subprocess.run([sys.executable, "-c", STAGES, str(scenario), str(csv), str(out)], capture_output=True,
                        text=True, check=True, cwd=ROOT)
     spent = json.loads(r.stdout.strip().splitlines()[-1])
     known = sum(v for k, v in spent.items() if k not in ("import_s", "after_import_s"))
