@@ -5,9 +5,9 @@ walk filter of the noise model) is this recursion after a feed-forward step done
 arithmetic. It is solved as the unit lower-bidiagonal system (I − a·S) y = u, S the shift, by
 LAPACK's banded triangular solve (``dtbtrs``): forward substitution, y[n] = u[n] − (−a)·y[n−1],
 the arithmetic of ``scipy.signal.lfilter([1], [1, −a], u)`` to the bit, without importing
-scipy.signal, which brings scipy.stats with it (about half a second of every command's start, by
-``python -X importtime``). Per call it is slower than lfilter (BLAS steps the band one column at a
-time); the benchmarks of ``twin compare`` and ``twin calibrate`` count both.
+scipy.signal, which brings scipy.stats with it at every command's start. Per call it is slower
+than lfilter (BLAS steps the band one column at a time); the benchmarks of ``twin compare`` and
+``twin calibrate`` count both (docs/long_logs.md).
 """
 
 from __future__ import annotations

@@ -44,8 +44,8 @@ def test_empty_input():
 
 
 def test_the_compare_start_imports_neither_scipy_signal_nor_scipy_stats():
-    """scipy.signal brings scipy.stats: together half a second of every command's start (measured
-    with ``python -X importtime``); nothing `twin compare` loads at start needs them."""
+    """scipy.signal brings scipy.stats, which parses every distribution's docstring at import;
+    nothing `twin compare` or `twin calibrate` loads at start needs them."""
     code = ("import sys, twin.cli, twin.workflows.compare, twin.workflows.calibrate; "
             "print(sorted(m for m in ('scipy.signal', 'scipy.stats') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)

@@ -213,7 +213,7 @@ def median_filter(values: np.ndarray) -> np.ndarray:
         Filtered values [unit of ``values``].
     """
     # scipy.ndimage's median over the same zero-padded windows: medfilt's values, without importing
-    # scipy.signal (and with it scipy.stats, half a second)
+    # scipy.signal (and with it scipy.stats) at the start of twin calibrate
     return ndimage.median_filter(np.asarray(values, dtype=float), MEDIAN_KERNEL, mode="constant", cval=0.0)
 
 
