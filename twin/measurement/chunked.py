@@ -23,8 +23,8 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from contextlib import AbstractContextManager
-from typing import Protocol
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
@@ -162,8 +162,8 @@ class _NotClean(ValueError):
 def gather_columns(path: Path, first_line: int, open_frames: Callable[[Callable], AbstractContextManager],
                    roles, position: Callable, sink: _Sink) -> tuple[dict[str, np.ndarray], set[str], int] | None:
     """The needed columns of a file's float64 chunks gathered into arrays grown in place: the
-    parser's frame never holds more than one chunk per parsing thread. The one loop of every
-    chunked path.
+    parser holds one chunk per parsing thread and one waiting, never the file. The one loop of
+    every chunked path.
 
     Parameters
     ----------
