@@ -212,8 +212,7 @@ def median_filter(values: np.ndarray) -> np.ndarray:
     ndarray
         Filtered values [unit of ``values``].
     """
-    # scipy.ndimage's median over the same zero-padded windows: medfilt's values, without importing
-    # scipy.signal (and with it scipy.stats) at the start of twin calibrate
+    # ndimage's median over medfilt's zero-padded windows: its values, without importing scipy.signal
     return ndimage.median_filter(np.asarray(values, dtype=float), MEDIAN_KERNEL, mode="constant", cval=0.0)
 
 
