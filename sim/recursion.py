@@ -43,7 +43,8 @@ def one_pole(u: np.ndarray, pole: float, *, overwrite: bool = False) -> np.ndarr
     n = u.shape[0] if u.ndim else 0
     if n == 0 or u.size == 0:
         return u.copy()
-    band = np.empty((2, n), order="F")  # row 0, the diagonal, is not read (diag="U": unit diagonal)
+    band = np.empty((2, n), order="F")
+    band[0] = 1.0  # the diagonal: not read with diag="U", set so that no LAPACK can read garbage
     band[1] = -pole  # sub-diagonal; its last entry is not read
     rhs = u.reshape(n, -1)  # a view of a 1-D input, F-ordered as LAPACK wants it
     rhs = np.asfortranarray(rhs) if overwrite else np.array(rhs, order="F")
