@@ -64,3 +64,25 @@ def test_px4_median_filter_is_medfilt(n):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # medfilt warns when the window is longer than the series
         assert np.array_equal(median_filter(x), medfilt(x, 31))
+
+
+def test_the_paper_simulation_is_lfilters_within_rounding(monkeypatch):
+    """The thermal modes once ran through lfilter; through sim.recursion the temperatures move by
+    rounding only (≤ 1e-12 °C) and the logged, quantised output not at all."""
+    import yaml
+
+    import sim.thermal
+    from twin.model.scenario import parse_scenario
+    from twin.model.simulate import simulate
+
+    path = ROOT / "scenarios" / "paper_iis328dq.yaml"
+    data = yaml.safe_load(path.read_text())
+    data["test_plan"]["logger_rate_hz"] = 1.0
+    text = yaml.safe_dump(data)
+    ours = simulate(parse_scenario(text, str(path))).arrays
+    monkeypatch.setattr(sim.thermal, "first_order_filter",
+                        lambda x, b0, b1, pole, initial=0.0: lfilter([b0, b1], [1.0, -pole], x, zi=[initial])[0])
+    before = simulate(parse_scenario(text, str(path))).arrays
+    assert np.array_equal(ours["output/output_g"], before["output/output_g"])
+    for key in ("temperature/air_c", "temperature/board_c", "temperature/die_c", "temperature/thermometer_c"):
+        np.testing.assert_allclose(ours[key], before[key], rtol=0, atol=1e-12)
