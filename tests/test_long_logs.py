@@ -36,10 +36,22 @@ def test_play_operator_paths_are_identical_to_the_recursion():
     x = _walk(3000)
     ref = _play_loop(x, 0.7, x[0])
     assert np.array_equal(drift.play_operator_scan(x, 0.7), ref)
+    assert np.array_equal(drift.play_operator(x, 0.7), ref)  # below COMPILED_MIN_SIZE: the blocked scan
     big = _walk(drift.COMPILED_MIN_SIZE + 1234, seed=1)  # large enough for the compiled kernel
-    compiled, scan = drift.play_operator(big, 1.5, initial=0.3), drift.play_operator_scan(big, 1.5, initial=0.3)
+    compiled, blocked = drift.play_operator(big, 1.5, initial=0.3), drift.play_operator_blocked(big, 1.5, initial=0.3)
     # min/max only, no rounding: any correct order of evaluation gives the same bits
-    assert np.max(np.abs(compiled - scan)) <= 1e-12 and np.array_equal(compiled, scan)
+    assert np.max(np.abs(compiled - blocked)) <= 1e-12 and np.array_equal(compiled, blocked)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 8, 9, 10, 15, 16, 17, 99, 1000, 4097])
+def test_blocked_play_operator_is_the_recursion_at_every_block_layout(n):
+    # n = b·m exactly, one short, one over: a full and a partly padded last block
+    x = _walk(n, seed=n)
+    for r, p0 in ((0.7, None), (0.0, None), (3.0, -5.0), (0.05, 40.0)):
+        ref = _play_loop(x, r, x[0] if p0 is None else p0)
+        got = drift.play_operator_blocked(x, r, initial=p0)
+        assert got.shape == x.shape and np.array_equal(got, ref), (n, r, p0)
+    assert drift.play_operator_blocked(np.array([]), 1.0).size == 0
 
 
 def test_play_operator_falls_back_to_the_scan_without_numba(monkeypatch):
