@@ -245,11 +245,13 @@ def play_operator_blocked(x: np.ndarray, half_width: float, initial: float | Non
     tail = n - full
     lo[:tail, -1], hi[:tail, -1] = x[full:] - r, x[full:] + r
     lo[tail:, -1], hi[tail:, -1] = -np.inf, np.inf  # padding past the end (outputs dropped)
+    row = np.empty(m)
     for k in range(1, b):
         # the map of steps 0..k of each block: clamp k after the map of steps 0..k−1. hi first,
         # then lo against the new hi: clip(lo, a, clip(hi, a, b)) = clip(lo, a, b) as lo ≤ hi.
-        np.clip(hi[k - 1], lo[k], hi[k], out=hi[k])
-        np.clip(lo[k - 1], lo[k], hi[k], out=lo[k])
+        # (two ufuncs with out=: np.clip's Python wrapper costs twice as much on rows this short)
+        np.minimum(np.maximum(hi[k - 1], lo[k], out=row), hi[k], out=hi[k])
+        np.minimum(np.maximum(lo[k - 1], lo[k], out=row), hi[k], out=lo[k])
     start = np.empty(m)
     p = x[0] if initial is None else float(initial)
     for j, (a, c) in enumerate(zip(lo[-1].tolist(), hi[-1].tolist())):

@@ -176,6 +176,14 @@ CASES = {
     "tabs, kelvin, m/s^2, spaces": (
         _text("t\tT\ta\n" + "".join(f"{i}\t {298.15 + i / 7:.3f}\t{9.80665 + i * 1e-4:.6f}\n" for i in range(60))),
         dict(time="t", temperature="T", output="a", temperature_unit="K", output_unit="m/s^2")),
+    # spaces after the commas are left to the number parser on the fast path; a quote after a space
+    # splits fields differently without skipping them, so there the fast path skips them as the careful one
+    "spaces after commas": (
+        _text("time_s, temperature_c, output_g\n" + "".join(f"{i},  {25 + i / 7:.3f}, {0.98 + i * 1e-5:.8f}\n"
+                                                           for i in range(60))), {}),
+    "a quoted number after a space": (
+        _text("time_s, temperature_c, output_g\n" + "".join(f"{i}, \"{25 + i / 7:.3f}\", {0.98 + i * 1e-5:.8f}\n"
+                                                           for i in range(60))), {}),
 }
 
 

@@ -109,7 +109,8 @@ COLUMN_MAPS = st.dictionaries(st.sampled_from(FIELDS + ("bogus",)), ODD_VALUES, 
 
 NUMBER_TEXT = st.one_of(
     st.floats(-1e3, 1e3, allow_nan=False).map(lambda v: f"{v:.6g}"),
-    st.sampled_from(["nan", "NaN", "inf", "-inf", "", "abc", "1,5", " 3", "1e400", "0x10", "True", "9" * 25, "\"2\""]))
+    st.sampled_from(["nan", "NaN", "inf", "-inf", "", "abc", "1,5", " 3", "1e400", "0x10", "True", "9" * 25, "\"2\"",
+                     " \"2\"", " \"1,5\"", "   ", " nan", "2 "]))
 
 
 @st.composite
@@ -121,6 +122,7 @@ def text_logs(draw):
     ncol = draw(st.integers(2, 6))
     t0, dt = draw(st.floats(0, 1e4)), draw(st.sampled_from([0.5, 1.0, 10.0]))
     temp0 = draw(st.floats(-30, 60))
+    pad = draw(st.sampled_from(["", "", " ", "  "]))  # spaces after each delimiter, as some loggers write
     rows = []
     for i in range(n):
         good = [f"{t0 + i * dt:.6g}", f"{temp0 + 0.3 * i:.4f}", f"{1 + 1e-4 * i:.7f}", "1", "0", "0"][:ncol]
@@ -129,7 +131,7 @@ def text_logs(draw):
             good[k] = draw(NUMBER_TEXT)
             if draw(st.booleans()):
                 good = good[:draw(st.integers(1, ncol + 2))] + ["7"] * draw(st.integers(0, 2))
-        rows.append(sep.join(good))
+        rows.append((sep + pad).join(good))
     banner = draw(st.lists(st.sampled_from(["# rig 3", "operator: me", "", "time_s,temp"]), max_size=3))
     lines = banner + ([sep.join(COLUMNS[:ncol])] if header else []) + rows
     data = ("\n".join(lines) + draw(st.sampled_from(["\n", "", "\r\n"]))).encode()

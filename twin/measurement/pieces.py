@@ -13,7 +13,6 @@ one parser reads on (:func:`read_on`), as before.
 
 from __future__ import annotations
 
-import io
 import os
 import re
 from collections import deque
@@ -95,7 +94,7 @@ def parse_threads() -> int:
 
 
 @contextmanager
-def parsed_pieces(path: Path, head: bytes, start: int, parse: Callable[[io.BytesIO], object], piece_bytes: int):
+def parsed_pieces(path: Path, head: bytes, start: int, parse: Callable[[bytes], object], piece_bytes: int):
     """``path`` from ``start`` cut into pieces of whole lines, each behind ``head``, parsed on a pool
     of threads; the results in file order, at most one piece per thread waiting (bounded memory).
 
@@ -108,7 +107,7 @@ def parsed_pieces(path: Path, head: bytes, start: int, parse: Callable[[io.Bytes
     start : int
         Byte offset of the first data row.
     parse : callable
-        ``parse(buffer)``: the result of one piece (the header line, then whole lines).
+        ``parse(piece)``: the result of one piece (bytes: the header line, then whole lines).
     piece_bytes : int
         About how many bytes of lines each piece holds.
 
@@ -123,7 +122,7 @@ def parsed_pieces(path: Path, head: bytes, start: int, parse: Callable[[io.Bytes
     def results():
         pending = deque()
         for piece in _pieces(path, head, start, piece_bytes):
-            pending.append(pool.submit(parse, io.BytesIO(piece)))  # BytesIO shares the bytes: no copy
+            pending.append(pool.submit(parse, piece))
             if len(pending) > threads:
                 yield pending.popleft().result()
         while pending:
@@ -156,7 +155,7 @@ def read_on(open_reader: Callable[[], object]) -> Callable:
     return open_frames
 
 
-def in_pieces(path: Path, head: bytes, start: int, parse: Callable[[io.BytesIO], object],
+def in_pieces(path: Path, head: bytes, start: int, parse: Callable[[bytes], object],
               piece_bytes: int) -> Callable:
     """``open_frames`` of the file cut into pieces parsed on threads (:func:`parsed_pieces`).
 
@@ -165,7 +164,7 @@ def in_pieces(path: Path, head: bytes, start: int, parse: Callable[[io.BytesIO],
     path, head, start, piece_bytes
         As :func:`parsed_pieces`.
     parse : callable
-        ``parse(buffer)``: the parser's frame of one piece.
+        ``parse(piece)``: the parser's frame of one piece (bytes).
 
     Returns
     -------
@@ -173,4 +172,4 @@ def in_pieces(path: Path, head: bytes, start: int, parse: Callable[[io.BytesIO],
         ``open_frames(prepare)``: a context manager of ``prepare(frame)`` per piece, ``prepare`` run
         on the thread that parsed the piece.
     """
-    return lambda prepare: parsed_pieces(path, head, start, lambda buffer: prepare(parse(buffer)), piece_bytes)
+    return lambda prepare: parsed_pieces(path, head, start, lambda piece: prepare(parse(piece)), piece_bytes)
