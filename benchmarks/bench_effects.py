@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _common import write_json  # noqa: E402
 
-from sim.drift import play_operator  # noqa: E402
+from sim.play import play_operator  # noqa: E402
 from twin.effects import REGISTRY, EffectInputs  # noqa: E402
 from twin.model.scenario import parse_scenario  # noqa: E402
 from twin.model.simulate import simulate, simulate_thermal, time_base  # noqa: E402

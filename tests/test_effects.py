@@ -8,7 +8,7 @@ import pytest
 
 from conftest import ROOT, SCENARIOS, coarse_text, run_cli
 from schemas import check_schema
-from sim.drift import play_operator
+from sim.play import play_operator
 from twin.effects import REGISTRY, Composition, Contribution, Effect, EffectInputs, Parameter, get_effect
 from twin.effects.check import EffectCheckError, check_effect, conformance_inputs
 from twin.errors import ModelError

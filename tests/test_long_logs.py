@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-import sim.drift as drift
+import sim.play as play
 from twin.diagnosis.sample_rate import block_sums, white_sigma_in_place
 from twin.estimation.decimate import block_aligned_factor, decimate, decimation_factor, time_since_power_on_s
 from twin.estimation.noise import white_noise_sigma_from_differences, white_sigma_of_differences
@@ -35,10 +35,10 @@ def _play_loop(x, r, p):
 def test_play_operator_paths_are_identical_to_the_recursion():
     x = _walk(3000)
     ref = _play_loop(x, 0.7, x[0])
-    assert np.array_equal(drift.play_operator_scan(x, 0.7), ref)
-    assert np.array_equal(drift.play_operator(x, 0.7), ref)  # below COMPILED_MIN_SIZE: the blocked scan
-    big = _walk(drift.COMPILED_MIN_SIZE + 1234, seed=1)  # large enough for the compiled kernel
-    compiled, blocked = drift.play_operator(big, 1.5, initial=0.3), drift.play_operator_blocked(big, 1.5, initial=0.3)
+    assert np.array_equal(play.play_operator_scan(x, 0.7), ref)
+    assert np.array_equal(play.play_operator(x, 0.7), ref)  # below COMPILED_MIN_SIZE: the blocked scan
+    big = _walk(play.COMPILED_MIN_SIZE + 1234, seed=1)  # large enough for the compiled kernel
+    compiled, blocked = play.play_operator(big, 1.5, initial=0.3), play.play_operator_blocked(big, 1.5, initial=0.3)
     # min/max only, no rounding: any correct order of evaluation gives the same bits
     assert np.max(np.abs(compiled - blocked)) <= 1e-12 and np.array_equal(compiled, blocked)
 
@@ -49,19 +49,19 @@ def test_blocked_play_operator_is_the_recursion_at_every_block_layout(n):
     x = _walk(n, seed=n)
     for r, p0 in ((0.7, None), (0.0, None), (3.0, -5.0), (0.05, 40.0)):
         ref = _play_loop(x, r, x[0] if p0 is None else p0)
-        got = drift.play_operator_blocked(x, r, initial=p0)
+        got = play.play_operator_blocked(x, r, initial=p0)
         assert got.shape == x.shape and np.array_equal(got, ref), (n, r, p0)
-    assert drift.play_operator_blocked(np.array([]), 1.0).size == 0
+    assert play.play_operator_blocked(np.array([]), 1.0).size == 0
 
 
 def test_play_operator_falls_back_to_the_scan_without_numba(monkeypatch):
     monkeypatch.setenv("TDE_TWIN_NO_NUMBA", "1")
-    monkeypatch.setattr(drift, "_KERNEL", [])
-    x = _walk(drift.COMPILED_MIN_SIZE + 10, seed=2)
-    assert drift._play_kernel() is None
-    assert np.array_equal(drift.play_operator(x, 0.5), drift.play_operator_scan(x, 0.5))
+    monkeypatch.setattr(play, "_KERNEL", [])
+    x = _walk(play.COMPILED_MIN_SIZE + 10, seed=2)
+    assert play._play_kernel() is None
+    assert np.array_equal(play.play_operator(x, 0.5), play.play_operator_scan(x, 0.5))
     with pytest.raises(ValueError):
-        drift.play_operator(x, -1.0)
+        play.play_operator(x, -1.0)
 
 
 def test_existing_sample_rates_are_not_decimated(monkeypatch):

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from sim.drift import play_operator
+from sim.play import play_operator
 from twin.effects.base import Contribution, Effect, Parameter
 from twin.effects.registry import register
 

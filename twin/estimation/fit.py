@@ -23,6 +23,7 @@ from twin.estimation.problem import (
     DiagnosisConfig,
     Problem,
     amplitude_bounds,
+    averaged_design,
     design_matrix,
 )
 from twin.effects import Composition, EffectInputs
@@ -119,9 +120,7 @@ class TwinFit:
 
 
 def _rss_for(problem: Problem, comp: Composition, pinned: frozenset = frozenset()) -> float:
-    X, names, fixed, _ = design_matrix(problem, comp, pinned)
-    A = problem.avg(np.column_stack([problem.nuisance, X]))
-    b = problem.avg(problem.y - fixed)
+    A, b, names = averaged_design(problem, comp, pinned)
     lo, hi = amplitude_bounds(names, problem.nuisance.shape[1])
     beta = fit_bounded_linear(A, b, lo, hi)
     r = b - A @ beta
@@ -269,10 +268,7 @@ def profile_ci(problem: Problem, comp: Composition, ar: ARModel, slots, pinned: 
         grid = np.unique(np.clip(v0 * np.exp(steps), lo_b, hi_b))
         rss = []
         for v in grid:
-            c = _with(comp, i, pname, float(v))
-            X, names, fixed, _ = design_matrix(problem, c, pinned)
-            A = problem.avg(np.column_stack([problem.nuisance, X]))
-            b = problem.avg(problem.y - fixed)
+            A, b, _ = averaged_design(problem, _with(comp, i, pname, float(v)), pinned)
             Aw, bw = ar.prewhiten(A, problem.run_avg), ar.prewhiten(b, problem.run_avg)
             beta = np.linalg.lstsq(Aw, bw, rcond=None)[0]
             r = bw - Aw @ beta

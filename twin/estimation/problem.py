@@ -87,6 +87,8 @@ class Problem:
     nuisance : np.ndarray
         Per-run offset columns, and the scale-factor column K1 (IEEE Std 1293) on a tumble.
     nuisance_names : list of str
+    averaged : dict
+        Block means of the effects' columns, kept by :func:`averaged_design`.
     """
 
     def __init__(self, m: Measurement, config: DiagnosisConfig, time_since_power_on_s: np.ndarray | None = None):
@@ -120,6 +122,7 @@ class Problem:
             names.append("scale_factor_k1")
         self.nuisance = np.column_stack(cols)
         self.nuisance_names = names
+        self.averaged: dict = {}  # block means of effects' columns (averaged_design)
 
     @property
     def n(self) -> int:
@@ -169,6 +172,79 @@ def design_matrix(problem: Problem, comp: Composition, pinned: frozenset = froze
                 fixed += e.values[amp] * col
     X = np.column_stack(cols) if cols else np.zeros((problem.n, 0))
     return X, names, fixed, inputs
+
+
+AVERAGED_CACHE = 128  # effects' averaged columns a Problem keeps (each a few blocks × amplitudes: < 10 MB in all)
+
+
+def averaged_design(problem: Problem, comp: Composition, pinned: frozenset = frozenset()
+                    ) -> tuple[np.ndarray, np.ndarray, list[tuple[str, str]]]:
+    """The block means of :func:`design_matrix`: A = means of [nuisance, X], b = means of y − fixed.
+
+    Means are linear, so each effect's columns are averaged once and kept on the problem, keyed by
+    the effect's values and the temperature slot's (at most :data:`AVERAGED_CACHE`): a search over
+    one nonlinear parameter recomputes that effect only, or, for the temperature slot, the effects
+    reading the die temperature. An effect whose values or context cannot be a key is recomputed
+    every time.
+
+    Parameters
+    ----------
+    problem : Problem
+        The prepared measurement.
+    comp : Composition
+        The model.
+    pinned : frozenset of (effect, amplitude)
+        Amplitudes held at their current values.
+
+    Returns
+    -------
+    A : np.ndarray
+        Block means of the nuisance and free-amplitude columns.
+    b : np.ndarray
+        Block means of y minus everything not free [g].
+    names : list of (effect, amplitude)
+        The free columns' names.
+    """
+    cache = problem.averaged
+    if not cache:
+        cache["nuisance"], cache["y"] = problem.avg(problem.nuisance), problem.avg(problem.y)
+    slot = comp.temperature_effect
+    inputs = None
+    cols, names, b = [cache["nuisance"]], [], cache["y"]
+    for e in comp.drift_effects:
+        key = _effect_key(e, slot)
+        averaged = cache.get(key) if key is not None else None
+        if averaged is None:
+            inputs = inputs or comp.with_die_temperature(problem.inputs)
+            averaged = {amp: problem.avg(np.broadcast_to(contrib.output_g(problem.applied), (problem.n,)))
+                        for amp, contrib in e.basis(inputs).items()}
+            if key is not None:
+                if len(cache) >= AVERAGED_CACHE + 2:  # oldest first (dicts keep insertion order)
+                    del cache[next(k for k in cache if k not in ("nuisance", "y"))]
+                cache[key] = averaged
+        fit_all = e.context.get("fit_all", False)
+        free = {p.name for p in e.parameters
+                if p.role == "amplitude" and (p.free or fit_all) and (e.name, p.name) not in pinned}
+        for amp, col in averaged.items():
+            if amp in free:
+                cols.append(col[:, None])
+                names.append((e.name, amp))
+            else:
+                b = b - e.values[amp] * col
+    return np.column_stack(cols), b, names
+
+
+def _effect_key(e, slot) -> tuple | None:
+    """What an effect's basis depends on besides the problem: its class, values and context, and
+    the temperature slot's (``None`` when one of them cannot be hashed)."""
+    def of(effect):
+        return (type(effect), tuple(sorted(effect.values.items())), tuple(sorted(effect.context.items())))
+    key = (of(e), of(slot) if slot is not None else None)
+    try:
+        hash(key)
+    except TypeError:
+        return None
+    return key
 
 
 def amplitude_bounds(names: list[tuple[str, str]], n_nuisance: int) -> tuple[np.ndarray, np.ndarray]:
