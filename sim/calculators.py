@@ -8,7 +8,6 @@ Qi et al. (2022), eqs. (26)–(35); docs/physics.md §2.1–2.3 and §3 rows 15�
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import brentq
 
 R_AIR_J_PER_KGK = 287.05
 
@@ -268,4 +267,6 @@ def centre_response_fourier(fraction: float) -> float:
     float
         Fo = a t / l² [1] (root of :func:`centre_response`, Carslaw & Jaeger §3.3).
     """
+    from scipy.optimize import brentq  # here only: every command imports this module, few call this
+
     return brentq(lambda fo: centre_response(fo)[0] - fraction, 1e-4, 20.0, xtol=1e-12)

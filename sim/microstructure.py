@@ -27,7 +27,6 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 import numpy as np
-from scipy.optimize import brentq
 
 from sim.materials import KELVIN, silicon_cte_per_k, silicon_thermal_strain, silicon_youngs_modulus_pa
 
@@ -314,6 +313,8 @@ def check_gaps(geometry: CombGeometry, full_scale_g: float = 2.0, reading: str =
                                 f"({values[0] * 1e6:.3g} µm at {t_low_c:g} °C)")
         k = int(np.argmax(values <= 0))
         lo, hi = (temps[k - 1], temps[k]) if k > 0 else (temps[k], temps[k + 1])
+        from scipy.optimize import brentq  # only on this error path: scipy.optimize is slow to import
+
         t_close = brentq(lambda t: margins(t)[idx], lo, hi) if k > 0 else temps[0]
         raise GeometryError(f"geometry: the {name} closes at {t_close:.1f} °C (reading {reading}, "
                             f"full scale {full_scale_g:g} g)")

@@ -290,3 +290,31 @@ def test_a_negative_zero_time_reads_the_same_message_on_both_paths(tmp_path, mon
             read()
         messages.append(str(exc.value))
     assert messages[0] == messages[1] and "(7 s then 0 s)" in messages[0]
+
+
+@pytest.mark.parametrize("n", [20, 21, 22, 23])
+def test_the_unit_checks_decide_exactly_as_the_median_does(n):
+    """The kelvin and |output| checks count values past the level before taking a median; the
+    decision must be the median's, the middle values straddling the level included."""
+    from twin.measurement.core import check
+
+    rng = np.random.default_rng(n)
+    decided = set()
+    for _ in range(300):
+        above = int(rng.integers(n // 2 - 2, n // 2 + 3))  # around the middle, where the shortcut could err
+        temp = np.where(np.arange(n) < above, rng.choice([150.5, 170.0, 199.0], n), rng.choice([150.0, 149.0, 25.0], n))
+        out = np.where(rng.permutation(n) < above, rng.choice([-4.5, 4.0 + 1e-9, 6.0], n), rng.choice([4.0, -4.0, 1.0], n))
+        for values, field, level, expected_error in ((temp, "temperature_c", 150, "kelvin"), (out, "output_g", 4.0, "accelerometer")):
+            m = tm.Measurement(np.arange(n, dtype=float), np.full(n, 25.0), np.ones(n), np.ones(n),
+                               np.zeros(n, np.int16), np.zeros(n, bool), True, ["x"], 0, [])
+            setattr(m, field, values)
+            expect = float(np.median(np.abs(values) if field == "output_g" else values)) > level
+            try:
+                check(m, "x")
+                raised = False
+            except tm.MeasurementError as exc:
+                assert expected_error in str(exc)
+                raised = True
+            assert raised == expect, (field, values)
+            decided.add((field, expect))
+    assert len(decided) == 4  # both decisions seen for both checks

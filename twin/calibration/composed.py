@@ -17,13 +17,13 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 from sklearn.utils.validation import check_is_fitted
 
 from twin.calibration.lag import ThermalLog, as_log, fit_inputs, make_X, validated_log
 from twin.calibration.models import AXES, CompensatorBase, poly_columns, to_mg_per_c
 from twin.estimation.linalg import fit_bounded_linear
 from twin.estimation.problem import amplitude_bounds
+from twin.estimation.search import bounded_minimum
 from twin.effects import Composition, EffectInputs, get_effect
 from twin.errors import TwinError
 
@@ -237,8 +237,8 @@ class ComposedCompensator(CompensatorBase):
                 lo, hi = max(grid[max(k - 1, 0)], p.bounds[0], 1e-9), min(grid[min(k + 1, len(grid) - 1)], p.bounds[1])
                 best = grid[k]
                 if hi > lo:
-                    res = minimize_scalar(lambda lv: solve(_with(effects, i, p.name, float(np.exp(lv))))[0],
-                                          bounds=(np.log(lo), np.log(hi)), method="bounded", options={"xatol": 1e-3})
+                    res = bounded_minimum(lambda lv: solve(_with(effects, i, p.name, float(np.exp(lv))))[0],
+                                          np.log(lo), np.log(hi), xatol=1e-3)
                     if res.fun <= sse[k]:
                         best = float(np.exp(res.x))
                 effects = _with(effects, i, p.name, best)

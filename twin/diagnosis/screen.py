@@ -12,13 +12,13 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 from scipy.special import fdtrc  # F survival, as scipy.stats.f.sf computes it, without importing scipy.stats
 
 from twin.estimation.fit import TwinFit
 from twin.estimation.linalg import heldout_errors, novelty, orthonormal_basis
 from twin.estimation.noise import fit_ar, fit_walk_ar
 from twin.estimation.problem import DiagnosisConfig, Problem, cv_folds
+from twin.estimation.search import bounded_minimum
 from twin.effects import REGISTRY, Composition, Effect, get_effect
 
 _PROGRESS: list[Callable[[int], object]] = []  # callbacks told of each grid point screened
@@ -333,7 +333,7 @@ def refine_grid_value(problem: Problem, cal: TwinFit, c: CandidateResult, J: np.
         X = problem.avg(screen_columns(problem, cal, cls, {**c.grid_values, k: float(np.exp(log_v))})[0])
         return -gls_candidate_test(problem, J, y, X, problem.config.max_ar_order).delta_bic
 
-    res = minimize_scalar(neg_dbic, bounds=(np.log(lo), np.log(hi)), method="bounded", options={"xatol": 0.01})
+    res = bounded_minimum(neg_dbic, np.log(lo), np.log(hi), xatol=0.01)
     best = float(np.exp(res.x)) if -res.fun > c.delta_bic else c.grid_values[k]
     return {**c.grid_values, k: best}
 

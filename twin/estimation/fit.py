@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from twin.estimation.linalg import (
     closest_column,
@@ -26,6 +25,7 @@ from twin.estimation.problem import (
     averaged_design,
     design_matrix,
 )
+from twin.estimation.search import bounded_minimum
 from twin.effects import Composition, EffectInputs
 
 
@@ -204,9 +204,8 @@ def fit_twin(problem: Problem, comp: Composition, config: DiagnosisConfig | None
             lo, hi = max(lo, param.bounds[0]), min(hi, param.bounds[1])
             best = grid[k]
             if hi > lo:
-                res = minimize_scalar(lambda lv: _rss_for(problem, _with(comp, i, pname, float(np.exp(lv))), pinned),
-                                      bounds=(np.log(max(lo, 1e-9)), np.log(hi)), method="bounded",
-                                      options={"xatol": 1e-3})
+                res = bounded_minimum(lambda lv: _rss_for(problem, _with(comp, i, pname, float(np.exp(lv))), pinned),
+                                      np.log(max(lo, 1e-9)), np.log(hi), xatol=1e-3)
                 if res.fun <= rss[k]:
                     best = float(np.exp(res.x))
             comp = _with(comp, i, pname, best)

@@ -40,7 +40,8 @@ from twin.measurement.core import MIN_ROWS, Measurement, MeasurementError, check
 
 LARGE_FILE_BYTES = 256 * 2**20  # smaller logs (every test, the 0.5 M-row benchmark) keep the in-memory path
 LARGE_FILE_ENV = "TDE_TWIN_CHUNKED_MIN_BYTES"  # overrides LARGE_FILE_BYTES (a test forces small files here)
-CHUNK_ROWS = 1 << 18  # ≈ 12 MB of float64 per chunk of six columns: the frame is no longer a peak
+CHUNK_ROWS = 1 << 19  # ≈ 25 MB of float64 per chunk of six columns: the frame is no longer a peak;
+# the parser sets up once per piece, so 2^19 reads a 24-h log in 2.1 s against 2.8 s at 2^18 (+100 MB)
 
 
 def large_file_bytes() -> int:
