@@ -144,8 +144,8 @@ def play_operator(x: np.ndarray, half_width: float, initial: float | None = None
     """
     x = np.asarray(x, float)
     r = _half_width(half_width)
-    # importing numba and loading the cached kernel costs ~0.75 s: the blocked scan (~20 ns per
-    # sample) runs ten calls on 4 M samples in about that time
+    # importing numba and loading the cached kernel costs ~0.9 s (bench_long.json): the blocked
+    # scan (~30 ns per sample) runs ten calls on 3 M samples in about that time
     kernel = _play_kernel() if (_KERNEL or x.size >= COMPILED_MIN_SIZE) else None
     if kernel is None or x.size == 0:
         return play_operator_blocked(x, r, initial)
