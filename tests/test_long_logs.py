@@ -185,3 +185,30 @@ def test_the_in_place_noise_floor_is_the_same_number(case):
     elif case == "empty":
         d = d[:0]
     assert white_sigma_in_place(d.copy()) == white_sigma_of_differences(d)
+
+
+def test_the_averaged_design_is_the_mean_of_the_full_design_whatever_the_cache_holds():
+    """Fits assemble their block-mean design from averaged columns kept on the problem: it must be
+    the mean of design_matrix's columns for every model, a changed temperature slot (which moves the
+    die temperature every other effect reads) and a changed nonlinear parameter included."""
+    from twin.effects import Composition
+    from twin.estimation.problem import averaged_design, design_matrix
+
+    p = Problem(_chamber_log(0.5, 5.0), DiagnosisConfig())
+
+    def model(lag_tau, width):
+        return Composition([get_effect("thermal_lag")(tau_s=lag_tau), get_effect("static_bias_tc")(),
+                            get_effect("thermal_hysteresis")(half_width_c=width)])
+
+    for lag_tau, width in [(60.0, 1.0), (120.0, 1.0), (60.0, 1.0), (60.0, 4.0), (240.0, 4.0), (60.0, 1.0)]:
+        comp = model(lag_tau, width)
+        A, b, names = averaged_design(p, comp)
+        X, names_full, fixed, _ = design_matrix(p, comp)
+        assert names == names_full
+        np.testing.assert_allclose(A, p.avg(np.column_stack([p.nuisance, X])), rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(b, p.avg(p.y - fixed), rtol=1e-12, atol=1e-15)
+    pinned = frozenset({names[-1]})  # a pinned amplitude moves from A to b
+    A, b, _ = averaged_design(p, comp, pinned)
+    X, _, fixed, _ = design_matrix(p, comp, pinned)
+    np.testing.assert_allclose(b, p.avg(p.y - fixed), rtol=1e-12, atol=1e-15)
+    assert A.shape[1] == p.nuisance.shape[1] + X.shape[1]

@@ -174,7 +174,10 @@ def design_matrix(problem: Problem, comp: Composition, pinned: frozenset = froze
     return X, names, fixed, inputs
 
 
-AVERAGED_CACHE = 128  # effects' averaged columns a Problem keeps (each a few blocks × amplitudes: < 10 MB in all)
+# effects' averaged columns a Problem keeps, least recently used dropped first: a fit varies one
+# parameter while the few other effects of its model stay (a column is 8 bytes per 10-s block:
+# 69 kB for a day, 0.5 MB for a week)
+AVERAGED_CACHE = 32
 
 
 def averaged_design(problem: Problem, comp: Composition, pinned: frozenset = frozenset()
@@ -182,7 +185,7 @@ def averaged_design(problem: Problem, comp: Composition, pinned: frozenset = fro
     """The block means of :func:`design_matrix`: A = means of [nuisance, X], b = means of y − fixed.
 
     Means are linear, so each effect's columns are averaged once and kept on the problem, keyed by
-    the effect's values and the temperature slot's (at most :data:`AVERAGED_CACHE`): a search over
+    the effect's values and the temperature slot's (the :data:`AVERAGED_CACHE` most recently used): a search over
     one nonlinear parameter recomputes that effect only, or, for the temperature slot, the effects
     reading the die temperature. An effect whose values or context cannot be a key is recomputed
     every time.
@@ -213,15 +216,16 @@ def averaged_design(problem: Problem, comp: Composition, pinned: frozenset = fro
     cols, names, b = [cache["nuisance"]], [], cache["y"]
     for e in comp.drift_effects:
         key = _effect_key(e, slot)
-        averaged = cache.get(key) if key is not None else None
+        averaged = cache.pop(key, None) if key is not None else None  # re-inserted below: most recent last
         if averaged is None:
-            inputs = inputs or comp.with_die_temperature(problem.inputs)
+            if inputs is None:
+                inputs = comp.with_die_temperature(problem.inputs)
             averaged = {amp: problem.avg(np.broadcast_to(contrib.output_g(problem.applied), (problem.n,)))
                         for amp, contrib in e.basis(inputs).items()}
-            if key is not None:
-                if len(cache) >= AVERAGED_CACHE + 2:  # oldest first (dicts keep insertion order)
-                    del cache[next(k for k in cache if k not in ("nuisance", "y"))]
-                cache[key] = averaged
+            if len(cache) >= AVERAGED_CACHE + 2:  # the least recently used (dicts keep insertion order)
+                del cache[next(k for k in cache if k not in ("nuisance", "y"))]
+        if key is not None:
+            cache[key] = averaged
         fit_all = e.context.get("fit_all", False)
         free = {p.name for p in e.parameters
                 if p.role == "amplitude" and (p.free or fit_all) and (e.name, p.name) not in pinned}
