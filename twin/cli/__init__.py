@@ -97,7 +97,7 @@ def console() -> None:
     without the interpreter's teardown of every module.
 
     That teardown frees scipy's, pandas' and pyarrow's objects one by one: 0.3-0.6 s after a
-    ``twin compare``, as much as its diagnosis of a 10 Hz log (mypy ends the same way). The atexit
+    ``twin compare`` on this machine kind, a tenth of the command (mypy ends the same way). The atexit
     handlers run and the standard streams are flushed first; while another non-daemon thread runs
     the interpreter exits as usual. :func:`main` itself only raises ``SystemExit``, so that a
     caller in Python keeps its process.

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import io
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -126,7 +127,7 @@ def _read_csv(path, cmap: ColumnMap, layout: _Layout, skip_bad_rows: bool, skipr
                        encoding="utf-8", **kwargs)
 
 
-def _numbers_only(layout: _Layout, quoted: bool) -> bool:
+def _numbers_only(layout: _Layout, has_quote: Callable[[], bool]) -> bool:
     """Whether the fast path may parse without skipping the spaces that open a field (pandas' C
     parser runs about 1.6× faster without): only where that reads the same values or fails.
 
@@ -134,8 +135,9 @@ def _numbers_only(layout: _Layout, quoted: bool) -> bool:
     delimiter; so with no quote in the text and another one-character delimiter the rows split
     the same, and each field differs only by its opening spaces, which the number parser skips.
     A field of spaces alone fails to convert to float64 without the option, and the careful path
-    reads the file (tests/test_readers.py)."""
-    return not quoted and len(layout.sep) == 1 and layout.sep != " "
+    reads the file (tests/test_properties_logs.py, tests/test_hardening_logs.py). ``has_quote()``
+    looks at the text only when the delimiter allows it."""
+    return len(layout.sep) == 1 and layout.sep != " " and not has_quote()
 
 
 def _has_quote(path: Path, block: int = 1 << 23) -> bool:
@@ -215,7 +217,7 @@ def _fast_values(path: Path, cmap: ColumnMap, layout: _Layout, roles, skip_bad_r
     # not usecols: with it the parser silently drops a ragged row's extra fields (module docstring)
     try:
         df = _read_csv(path, cmap, layout, skip_bad_rows, dtype=np.float64,
-                       spaces=not _numbers_only(layout, _has_quote(path)))
+                       spaces=not _numbers_only(layout, lambda: _has_quote(path)))
     except (ValueError, TypeError, OverflowError, UnicodeDecodeError, pd.errors.ParserError,
             pd.errors.EmptyDataError):
         return None
@@ -242,8 +244,8 @@ def _chunk_opener(path: Path, cmap: ColumnMap, layout: _Layout, skip_bad_rows: b
     def parse(piece: bytes):
         import pandas as pd
 
-        frame = _read_csv(io.BytesIO(piece), cmap, layout, skip_bad_rows, skiprows=0, dtype=np.float64,
-                          spaces=not _numbers_only(layout, b'"' in piece))
+        frame = _read_csv(io.BytesIO(piece), cmap, layout, skip_bad_rows, skiprows=0, dtype=np.float64,  # no copy
+                          spaces=not _numbers_only(layout, lambda: b'"' in piece))
         if not isinstance(frame.index, pd.RangeIndex):  # a first row with one field more: read as an index
             raise ValueError("a row with more fields than the header")
         return frame
