@@ -45,9 +45,12 @@ def test_empty_input():
 
 def test_the_compare_start_imports_neither_scipy_signal_nor_scipy_stats():
     """scipy.signal brings scipy.stats, which parses every distribution's docstring at import;
-    nothing `twin compare` or `twin calibrate` loads at start needs them."""
-    code = ("import sys, twin.cli, twin.workflows.compare, twin.workflows.calibrate; "
-            "print(sorted(m for m in ('scipy.signal', 'scipy.stats') if m in sys.modules))")
+    scipy.optimize costs 0.3 s and numba 0.9 s with its cached kernel: nothing `twin compare` or
+    `twin calibrate` loads at start needs them, and the play operator of a compare's means (below
+    COMPILED_MIN_SIZE) does not load numba either."""
+    code = ("import sys, numpy as np, twin.cli, twin.workflows.compare, twin.workflows.calibrate; "
+            "from sim.play import play_operator; play_operator(np.arange(300_000.0), 2.0); "
+            "print(sorted(m for m in ('scipy.signal', 'scipy.stats', 'scipy.optimize', 'numba') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
     assert out.stdout.strip() == "[]"
 
