@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+
 def play_operator_scan(x: np.ndarray, half_width: float, initial: float | None = None) -> np.ndarray:
     """Play operator by a parallel prefix scan of composed clamps: the pure-NumPy reference.
 
