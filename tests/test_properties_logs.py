@@ -133,7 +133,7 @@ def text_logs(draw):
                 good = good[:draw(st.integers(1, ncol + 2))] + ["7"] * draw(st.integers(0, 2))
         rows.append((sep + pad).join(good))
     banner = draw(st.lists(st.sampled_from(["# rig 3", "operator: me", "", "time_s,temp"]), max_size=3))
-    lines = banner + ([sep.join(COLUMNS[:ncol])] if header else []) + rows
+    lines = banner + ([(sep + pad).join(COLUMNS[:ncol])] if header else []) + rows
     data = ("\n".join(lines) + draw(st.sampled_from(["\n", "", "\r\n"]))).encode()
     if draw(st.integers(0, 9)) == 0:
         at = draw(st.integers(0, max(0, len(data) - 1)))
