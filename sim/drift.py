@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from sim import compiled
+
 
 def bias_tc_g(
     die_c: np.ndarray, tc1_mg_per_c: float, tc2_mg_per_c2: float = 0.0, reference_c: float = 25.0
@@ -262,16 +264,11 @@ def _lag_kernel():
 
 
 def _compile_lag():
-    import os
-
-    if os.environ.get("TDE_TWIN_NO_NUMBA"):
-        return None
-    try:
-        import numba
-    except ImportError:  # the Python loop gives the same output, slower
+    jit = compiled.njit()
+    if jit is None:  # the Python loop gives the same output, slower
         return None
 
-    @numba.njit(cache=True, nogil=True)
+    @jit
     def lag_loop(x, b0, b1, out):  # pragma: no cover - compiled
         y = x[0]
         out[0] = y

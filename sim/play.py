@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from sim import compiled
+
 
 def play_operator_scan(x: np.ndarray, half_width: float, initial: float | None = None) -> np.ndarray:
     """Play operator by a parallel prefix scan of composed clamps: the pure-NumPy reference.
@@ -175,16 +177,11 @@ def _play_kernel():
 
 
 def _compile_play():
-    import os
-
-    if os.environ.get("TDE_TWIN_NO_NUMBA"):
-        return None
-    try:
-        import numba
-    except ImportError:  # optional accelerator: the blocked scan gives the same output
+    jit = compiled.njit()
+    if jit is None:  # optional accelerator: the blocked scan gives the same output
         return None
 
-    @numba.njit(cache=True, nogil=True)
+    @jit
     def play_loop(x, r, p, out):  # pragma: no cover - compiled
         for k in range(x.size):
             p = min(max(p, x[k] - r), x[k] + r)  # branch-free: the clamp's branch would mispredict

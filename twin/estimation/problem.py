@@ -7,6 +7,7 @@ tool then "discovers"); blocks are averaged (10 s) for screening.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
@@ -129,6 +130,16 @@ class Problem:
         """Number of samples [1]."""
         return int(self.y.size)
 
+    @cached_property
+    def nuisance_means(self) -> np.ndarray:
+        """Block means of the nuisance columns (blocks × columns)."""
+        return self.avg(self.nuisance)
+
+    @cached_property
+    def y_means(self) -> np.ndarray:
+        """Block means of y [g]."""
+        return self.avg(self.y)
+
 
 def design_matrix(problem: Problem, comp: Composition, pinned: frozenset = frozenset()
                   ) -> tuple[np.ndarray, list[tuple[str, str]], np.ndarray, EffectInputs]:
@@ -160,9 +171,7 @@ def design_matrix(problem: Problem, comp: Composition, pinned: frozenset = froze
     cols, names = [], []
     fixed = np.zeros(problem.n)
     for e in comp.drift_effects:
-        fit_all = e.context.get("fit_all", False)  # added by the user: its amplitudes are calibrated too
-        free = {p.name for p in e.parameters
-                if p.role == "amplitude" and (p.free or fit_all) and (e.name, p.name) not in pinned}
+        free = _free_amplitudes(e, pinned)
         for amp, contrib in e.basis(inputs).items():
             col = np.broadcast_to(contrib.output_g(problem.applied), (problem.n,)).astype(float)
             if amp in free:
@@ -172,6 +181,14 @@ def design_matrix(problem: Problem, comp: Composition, pinned: frozenset = froze
                 fixed += e.values[amp] * col
     X = np.column_stack(cols) if cols else np.zeros((problem.n, 0))
     return X, names, fixed, inputs
+
+
+def _free_amplitudes(e, pinned: frozenset) -> set[str]:
+    """The amplitudes of ``e`` a fit calibrates: free ones (all, for an effect added by the user:
+    ``fit_all``), less the pinned."""
+    fit_all = e.context.get("fit_all", False)
+    return {p.name for p in e.parameters
+            if p.role == "amplitude" and (p.free or fit_all) and (e.name, p.name) not in pinned}
 
 
 # effects' averaged columns a Problem keeps, least recently used dropped first: a fit varies one
@@ -209,11 +226,9 @@ def averaged_design(problem: Problem, comp: Composition, pinned: frozenset = fro
         The free columns' names.
     """
     cache = problem.averaged
-    if not cache:
-        cache["nuisance"], cache["y"] = problem.avg(problem.nuisance), problem.avg(problem.y)
     slot = comp.temperature_effect
     inputs = None
-    cols, names, b = [cache["nuisance"]], [], cache["y"]
+    cols, names, b = [problem.nuisance_means], [], problem.y_means
     for e in comp.drift_effects:
         key = _effect_key(e, slot)
         averaged = cache.pop(key, None) if key is not None else None  # re-inserted below: most recent last
@@ -222,13 +237,11 @@ def averaged_design(problem: Problem, comp: Composition, pinned: frozenset = fro
                 inputs = comp.with_die_temperature(problem.inputs)
             averaged = {amp: problem.avg(np.broadcast_to(contrib.output_g(problem.applied), (problem.n,)))
                         for amp, contrib in e.basis(inputs).items()}
-            if len(cache) >= AVERAGED_CACHE + 2:  # the least recently used (dicts keep insertion order)
-                del cache[next(k for k in cache if k not in ("nuisance", "y"))]
+            if len(cache) >= AVERAGED_CACHE:  # the least recently used (dicts keep insertion order)
+                del cache[next(iter(cache))]
         if key is not None:
             cache[key] = averaged
-        fit_all = e.context.get("fit_all", False)
-        free = {p.name for p in e.parameters
-                if p.role == "amplitude" and (p.free or fit_all) and (e.name, p.name) not in pinned}
+        free = _free_amplitudes(e, pinned)
         for amp, col in averaged.items():
             if amp in free:
                 cols.append(col[:, None])
