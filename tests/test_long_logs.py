@@ -12,7 +12,9 @@ from scipy.signal import lfilter
 
 import sim.play as play
 from twin.diagnosis.sample_rate import block_sums, white_sigma_in_place
-from twin.estimation.decimate import block_aligned_factor, decimate, decimation_factor, time_since_power_on_s
+from twin.estimation.decimate import (
+    MAX_MODEL_ROWS, block_aligned_factor, decimate, decimation_factor, model_factor, time_since_power_on_s,
+)
 from twin.estimation.noise import white_noise_sigma_from_differences, white_sigma_of_differences
 from twin.estimation.problem import DiagnosisConfig, Problem
 from twin.diagnosis.screen import screening_progress
@@ -64,14 +66,17 @@ def test_play_operator_falls_back_to_the_scan_without_numba(monkeypatch):
         play.play_operator(x, -1.0)
 
 
-def test_existing_sample_rates_are_not_decimated(monkeypatch):
-    # 10-20 Hz logs (the paper case, the 515k-row benchmark, the golden outputs) run as before
+def test_long_or_fast_logs_are_diagnosed_on_at_most_max_model_rows_means(monkeypatch):
     assert [decimation_factor(r) for r in (1.0, 10.0, 11.0, 20.0)] == [1, 1, 1, 1]
     assert decimation_factor(100.0) == decimation_factor(99.99999999781721) == 10 and decimation_factor(50.0) == 5 and decimation_factor(1000.0) == 100
-    monkeypatch.setenv("TDE_TWIN_FULL_RATE", "1")
-    assert decimation_factor(100.0) == 1
     # means tile the 1000-sample screening block exactly (a day of 100 Hz capped at 100 k means: 100-sample means)
     assert [block_aligned_factor(k, 1000) for k in (10, 31, 400, 2000)] == [10, 40, 500, 1000]
+    assert model_factor(8_640_000, 100.0, 1000) == 100 and model_factor(360_000, 100.0, 1000) == 10
+    # a slow log is decimated only when it is long: the 16-h paper export at 10 Hz on 1-s means
+    assert model_factor(MAX_MODEL_ROWS, 10.0, 100) == 1 and model_factor(MAX_MODEL_ROWS + 1, 10.0, 100) == 2
+    assert model_factor(583_501, 10.0, 100) == 10 and model_factor(583_501, 1.0, 10) == 10
+    monkeypatch.setenv("TDE_TWIN_FULL_RATE", "1")
+    assert decimation_factor(100.0) == 1 and model_factor(8_640_000, 100.0, 1000) == model_factor(583_501, 10.0, 100) == 1
 
 
 def _chamber_log(hours, rate_hz, seed=3, runs=1):
@@ -91,17 +96,17 @@ def _chamber_log(hours, rate_hz, seed=3, runs=1):
                        np.r_[True, np.diff(run) != 0])
 
 
-@pytest.mark.parametrize("k", [10, 40])
+@pytest.mark.parametrize("rate_hz,k", [(100.0, 10), (100.0, 40), (10.0, 10)])
 @pytest.mark.parametrize("effect,values", [("thermal_hysteresis", {"half_width_c": 0.5}),
                                            ("thermal_lag", {"tau_s": 15.0}),
                                            ("thermal_gradient", {"tau_s": 30.0}),
                                            ("stress_relaxation", {"tau_s": 1800.0}),
                                            ("warmup", {"tau_s": 10.0})])
-def test_history_columns_on_means_match_full_rate_on_screening_blocks(effect, values, k):
-    """Each stateful column evaluated on k-sample means (10 Hz; 2.5 Hz as for a week) instead of
-    100 Hz, compared on the 10-s block means screening tests, at the shortest τ / narrowest play
-    width of the grids."""
-    m = _chamber_log(1.0, 100.0, runs=2)
+def test_history_columns_on_means_match_full_rate_on_screening_blocks(effect, values, rate_hz, k):
+    """Each stateful column evaluated on k-sample means (a 100 Hz log on 0.1-s and 0.4-s means, a
+    long 10 Hz log on 1-s means) instead of every sample, compared on the 10-s block means screening
+    tests, at the shortest τ / narrowest play width of the grids."""
+    m = _chamber_log(1.0, rate_hz, runs=2)
     m.power_on[len(m) // 4] = True  # a power cycle inside run 0
     dec, blocks = decimate(m, k)
     cfg = DiagnosisConfig()
@@ -119,11 +124,12 @@ def test_history_columns_on_means_match_full_rate_on_screening_blocks(effect, va
         held = np.repeat(problems[1].inputs.die_c, blocks.lengths)
         assert np.max(np.abs(full - means)) <= 1e-3 * np.max(np.abs(problems[0].inputs.die_c - held)) * (1 + 1e-9)
     else:
-        # inside runs the error is the input's curvature within 0.1 s, O((0.1 s / τ)²) ≈ 1e-4 at
-        # τ = 10 s; a run cut on a ramp adds, in its edge blocks, the change over half a block
-        # (0.4 % of the column there at k = 10): 0.1 % in RMS holds both at k = 10 (measured
-        # ≤ 0.05 %), the edge term grows with k: 0.2 % at k = 40 (measured ≤ 0.1 %)
-        bound = 1e-3 * max(1.0, k / 20)
+        # inside runs the error is the input's curvature within a mean, O((0.1 s / τ)²) ≈ 1e-4 at
+        # τ = 10 s on 0.1-s means; a run cut on a ramp adds, in its edge blocks, the change over
+        # half a mean (0.4 % of the column there on 0.1-s means): 0.1 % in RMS holds both on 0.1-s
+        # means (measured ≤ 0.05 %); the edge term grows with the mean's length: 0.2 % on 0.4-s
+        # means (measured ≤ 0.1 %), 0.5 % on 1-s means (measured ≤ 0.2 %)
+        bound = 1e-3 * max(1.0, k / rate_hz / 0.2)
         assert np.sqrt(np.mean((full - means) ** 2)) <= bound * np.sqrt(np.mean(full ** 2))
 
 
@@ -139,21 +145,27 @@ def test_block_sums_give_the_full_rate_residual_figures():
     assert sums.noise_floor_g == pytest.approx(white_noise_sigma_from_differences(r, m.run_index), rel=1e-5)
 
 
-def test_fast_log_diagnosed_on_means_names_the_same_lag_as_full_rate(monkeypatch):
-    """A 30 Hz, 2.75-h lag log: diagnosed on 10 Hz means and at full rate, the same effect, τ
-    within 3 % (its profile is flat to ~10 % here) and the per-sample figures within 0.5 %."""
+@pytest.mark.parametrize("rate_hz,hours,max_rows,k", [(30.0, 2.75, None, 3), (10.0, 3.0, 12_000, 10)])
+def test_fast_or_long_log_diagnosed_on_means_names_the_same_lag_as_full_rate(monkeypatch, rate_hz, hours, max_rows, k):
+    """A 30 Hz, 2.75-h lag log diagnosed on 10 Hz means, and a 10 Hz log on 1-s means as a log
+    longer than the row cap is (the cap lowered so the test stays short), against full rate: the
+    same effect, τ within 3 % (its profile is flat to ~10 % here) and the per-sample figures within
+    0.5 %."""
+    import twin.estimation.decimate as decimate_module
     from twin.finding.build import compare_measurement
     from twin.model.scenario import load_scenario
 
+    if max_rows is not None:
+        monkeypatch.setattr(decimate_module, "MAX_MODEL_ROWS", max_rows)
     loaded = load_scenario(Path(__file__).resolve().parents[1] / "scenarios/hidden_thermal_lag.yaml")
-    m = _chamber_log(2.75, 30.0)
+    m = _chamber_log(hours, rate_hz)
     ticks = []
     with screening_progress(ticks.append):  # the hook a progress bar hangs on
         fast = compare_measurement(loaded, m, [])[1].to_json()
     assert len(ticks) >= sum(len(get_effect(c["effect"]).grid()) for c in fast["candidates"])
     monkeypatch.setenv("TDE_TWIN_FULL_RATE", "1")
     full = compare_measurement(loaded, m, [])[1].to_json()
-    assert fast["measurement"]["diagnosed_on_means_of"] == 3 and "diagnosed_on_means_of" not in full["measurement"]
+    assert fast["measurement"]["diagnosed_on_means_of"] == k and "diagnosed_on_means_of" not in full["measurement"]
     assert fast["selected"][:1] == full["selected"][:1] == ["thermal_lag"]
     tau = [next(c for c in r["candidates"] if c["effect"] == "thermal_lag")["parameters_refined"]["tau_s"]
            for r in (fast, full)]

@@ -77,11 +77,11 @@ def diagnose_measurement(loaded: LoadedScenario, m: Measurement, with_effects: l
     Returns
     -------
     Diagnosis
-        A :class:`~twin.diagnosis.sample_rate.SampleRateDiagnosis` when a fast log was diagnosed on means.
+        A :class:`~twin.diagnosis.sample_rate.SampleRateDiagnosis` when a fast or long log was diagnosed on means.
     """
     cfg = DiagnosisConfig(average_s=average_s)
     rate = m.sample_rate_hz
-    # a fast log is diagnosed on means at 10 Hz; per-sample figures come from the full rate
+    # a fast or long log is diagnosed on means; per-sample figures come from the full rate
     problem, blocks, k = decimated_problem(m, rate, cfg)
     d = diagnose(problem, twin_model(loaded, with_effects), sensor_noise_floor_g(loaded, rate))
     return d if blocks is None else restore_sample_rate(d, m, blocks, k)

@@ -21,9 +21,7 @@ import numpy as np
 
 from twin.diagnosis.diagnose import Diagnosis
 from twin.estimation.noise import BlockAverager, white_sigma_in_place
-from twin.estimation.decimate import (
-    MAX_MODEL_ROWS, block_aligned_factor, decimate, decimation_factor, time_since_power_on_s,
-)
+from twin.estimation.decimate import decimate, model_factor, time_since_power_on_s
 from twin.estimation.problem import DiagnosisConfig, Problem
 from twin.diagnosis.segments import residual_segments
 from twin.measurement import Measurement
@@ -214,7 +212,8 @@ def restore_sample_rate(d: Diagnosis, m: Measurement, blocks: BlockAverager, k: 
 
 def decimated_problem(m: Measurement, rate_hz: float, config: DiagnosisConfig
                       ) -> tuple[Problem, BlockAverager | None, int]:
-    """The problem to diagnose: on k-sample means when the log is fast (see :func:`decimation_factor`).
+    """The problem to diagnose: on k-sample means when the log is fast or long (see
+    :func:`~twin.estimation.decimate.model_factor`).
 
     Parameters
     ----------
@@ -227,9 +226,7 @@ def decimated_problem(m: Measurement, rate_hz: float, config: DiagnosisConfig
     -------
     problem, blocks (None when not decimated), k
     """
-    k = decimation_factor(rate_hz)
-    if k > 1:
-        k = block_aligned_factor(max(k, -(-len(m) // MAX_MODEL_ROWS)), int(round(config.average_s * rate_hz)))
+    k = model_factor(len(m), rate_hz, int(round(config.average_s * rate_hz)))
     if k <= 1:
         return Problem(m, config), None, 1
     dec, blocks = decimate(m, k)
