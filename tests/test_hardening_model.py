@@ -293,3 +293,30 @@ def test_the_program_kernel_refuses_non_finite_numbers(steps):
 
     with pytest.raises(prog.ProgramError, match="finite"):
         prog.compile_program(-20.0, [getattr(prog, kind)(*args) for kind, args in steps])
+
+
+def test_libyaml_reads_every_document_as_the_python_parser_does(monkeypatch):
+    """Scenarios, parts and the adversarial corpus are parsed with libyaml's parser where PyYAML has
+    it: the same data, key lines and messages (refusals, malformed YAML) as with the pure-Python
+    SafeLoader alone."""
+    import yaml
+
+    import twin.text
+    from twin.errors import ScenarioError
+
+    def outcome(text):
+        try:
+            return twin.text.load_yaml_mapping(text, "f", "a mapping")
+        except ScenarioError as exc:
+            return str(exc)
+
+    files = sorted(ROOT.glob("scenarios/*.yaml")) + sorted(ROOT.glob("twin/parts/*.yaml")) + sorted(CORPUS.glob("*.yaml"))
+    assert len(files) > 30 and twin.text.LOADER is getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    texts = [f.read_text(encoding="utf-8", errors="replace") for f in files]
+    fast = [outcome(t) for t in texts]
+    monkeypatch.setattr(twin.text, "LOADER", yaml.SafeLoader)
+    python = [outcome(t) for t in texts]
+    for f, a, b in zip(files, fast, python):
+        assert repr(a) == repr(b), f.name
+    messages = " ".join(x for x in python if isinstance(x, str))
+    assert "malformed YAML" in messages and "nested deeper" in messages and "got list" in messages

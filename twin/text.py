@@ -45,10 +45,15 @@ def did_you_mean(name: object, options: Iterable, *, label: str | None = "valid"
     return f"; {label}: {', '.join(sorted(options) if sort else options)}"
 
 
+# libyaml's parser where PyYAML was built with it: the same events, nodes, marks and safe
+# constructor as yaml.SafeLoader, several times faster (a scenario is parsed three times below)
+LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
 def _compose(text: str) -> yaml.Node | None:
     """The YAML node tree (None for an empty or unparsable document: safe_load says why)."""
     try:
-        return yaml.compose(text, Loader=yaml.SafeLoader)
+        return yaml.compose(text, Loader=LOADER)
     except yaml.YAMLError:
         return None
 
@@ -148,7 +153,7 @@ MAX_YAML_DEPTH = 64
 MAX_YAML_NODES = 200_000  # after alias expansion
 
 
-def check_yaml_limits(text: str, path: str) -> None:
+def check_yaml_limits(text: str, path: str, loader: type | None = None) -> None:
     """Refuse YAML nested deeper than :data:`MAX_YAML_DEPTH`, larger than :data:`MAX_YAML_NODES`
     once aliases are expanded, or with an alias to a collection still open (a self-reference).
 
@@ -158,11 +163,16 @@ def check_yaml_limits(text: str, path: str) -> None:
         YAML text.
     path : str
         The file, for messages.
+    loader : type, optional
+        The PyYAML loader whose parser emits the events (default :data:`LOADER`). When libyaml's
+        stops with an error of its own (it has its own nesting limit), the pure-Python parser reads
+        on to the first limit of ours.
     """
+    loader = loader or LOADER
     sizes: dict[str, int] = {}
     stack: list[list] = [[None, 0]]  # per open collection: its anchor, its expanded node count
     try:
-        for event in yaml.parse(text, Loader=yaml.SafeLoader):
+        for event in yaml.parse(text, Loader=loader):
             line = event.start_mark.line + 1
             if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
                 stack.append([event.anchor, 1])
@@ -190,6 +200,8 @@ def check_yaml_limits(text: str, path: str) -> None:
                 raise ScenarioError(f"{path}:{line}: more than {MAX_YAML_NODES} values once its aliases are "
                                     "expanded; expected a plain document")
     except yaml.YAMLError:
+        if loader is not yaml.SafeLoader:
+            check_yaml_limits(text, path, yaml.SafeLoader)
         return  # the parser's own message comes from safe_load, with its line
 
 
@@ -252,7 +264,10 @@ def load_yaml_mapping(text: str, path: str, what: str) -> tuple[dict, dict[tuple
     root = _compose(text)
     check_duplicate_keys(root, path)
     try:
-        data = yaml.safe_load(text)
+        try:
+            data = yaml.load(text, Loader=LOADER)
+        except yaml.YAMLError:  # the pure-Python parser names the offending character and its line
+            data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = f":{mark.line + 1}" if mark is not None else ""
