@@ -1,13 +1,15 @@
-"""The one-pole recursion y[n] = u[n] + a·y[n−1], in one compiled pass without scipy.signal.
+"""The one-pole recursion y[n] = u[n] + a·y[n−1] in NumPy alone, without scipy.
 
 Every first-order filter of the twin (thermal modes, first-order lags, Gauss–Markov noise, the
 walk filter of the noise model) is this recursion after a feed-forward step done with whole-array
-arithmetic. It is solved as the unit lower-bidiagonal system (I − a·S) y = u, S the shift, by
-LAPACK's banded triangular solve (``dtbtrs``): forward substitution, y[n] = u[n] − (−a)·y[n−1],
-the arithmetic of ``scipy.signal.lfilter([1], [1, −a], u)`` to the bit, without importing
-scipy.signal, which brings scipy.stats with it at every command's start. Per call it is slower
-than lfilter (BLAS steps the band one column at a time); the benchmarks of ``twin compare`` and
-``twin calibrate`` count both (docs/long_logs.md).
+arithmetic. It is evaluated in two levels (the blocked form of a first-order linear recurrence):
+the samples are laid out as about √n blocks of √n rows, the recursion steps row by row through
+every block at once from a zero state, the blocks' end states are chained, and each block then
+adds its entering state times a^(k+1). That is about 2√n vector steps instead of n scalar ones, so
+no compiled loop is needed, and no scipy module is imported: ``scipy.linalg``, ``scipy.special``
+and ``scipy.ndimage`` share an array-API layer that costs 0.25-0.3 s at the start of a command.
+The first block is lfilter's arithmetic to the bit; later ones differ from the sequential
+recursion by rounding (``tests/test_recursion.py`` bounds it by the recursion of |u| with |a|).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 
-def one_pole(u: np.ndarray, pole: float, *, overwrite: bool = False) -> np.ndarray:
+def one_pole(u: np.ndarray, pole: float) -> np.ndarray:
     """y[n] = u[n] + pole·y[n−1] along the first axis, from y[−1] = 0.
 
     Parameters
@@ -24,8 +26,6 @@ def one_pole(u: np.ndarray, pole: float, *, overwrite: bool = False) -> np.ndarr
         Input, shape (n,) or (n, m) [any unit].
     pole : float
         The pole a [1] (|a| < 1 for a stable filter; any value is computed).
-    overwrite : bool
-        ``u`` may be overwritten (no copy of a 1-D float64 input).
 
     Returns
     -------
@@ -35,31 +35,35 @@ def one_pole(u: np.ndarray, pole: float, *, overwrite: bool = False) -> np.ndarr
     References
     ----------
     Oppenheim & Schafer, *Discrete-Time Signal Processing*, 3rd ed., §6.3 (the recursion);
-    Anderson et al., *LAPACK Users' Guide*, 3rd ed. (``dtbtrs``, banded triangular solve).
+    Blelloch, "Prefix sums and their applications", CMU-CS-90-190 (1990), §1.4 (first-order
+    linear recurrences evaluated by blocks).
     """
-    from scipy.linalg import lapack  # scipy.linalg is imported by every command already
-
     u = np.asarray(u, float)
     n = u.shape[0] if u.ndim else 0
     if n == 0 or u.size == 0:
         return u.copy()
-    band = np.empty((2, n), order="F")
-    band[0] = 1.0  # the diagonal: not read with diag="U", set so that no LAPACK can read garbage
-    band[1] = -pole  # sub-diagonal; its last entry is not read
-    rhs = u.reshape(n, -1)  # a view of a 1-D input, F-ordered as LAPACK wants it
-    rhs = np.asfortranarray(rhs) if overwrite else np.array(rhs, order="F")
-    y, info = lapack.dtbtrs(band, rhs, uplo="L", diag="U", overwrite_b=1)
-    if info != 0:  # pragma: no cover - unit diagonal: never singular
-        raise ArithmeticError(f"dtbtrs info {info}")
-    return np.ascontiguousarray(y).reshape(u.shape)
+    x = u.reshape(n, -1)
+    rows = int(np.sqrt(n - 1)) + 1  # ⌈√n⌉: rows per block
+    blocks = -(-n // rows)
+    z = np.zeros((blocks * rows, x.shape[1]))
+    z[:n] = x
+    z = np.ascontiguousarray(z.reshape(blocks, rows, -1).transpose(1, 0, 2))  # z[k, j] = u[j·rows + k]
+    for k in range(1, rows):  # every block from a zero state: the sequential arithmetic
+        z[k] += pole * z[k - 1]
+    entering = np.zeros(z.shape[1:])  # state before each block: s_j = end_{j−1} + a^rows · s_{j−1}
+    step = pole ** rows
+    for j in range(1, blocks):
+        entering[j] = z[-1, j - 1] + step * entering[j - 1]
+    z[:, 1:] += np.power(pole, np.arange(1.0, rows + 1.0))[:, None, None] * entering[None, 1:]
+    return np.ascontiguousarray(z.transpose(1, 0, 2).reshape(blocks * rows, -1)[:n]).reshape(u.shape)
 
 
 def first_order_filter(x: np.ndarray, b0: float, b1: float, pole: float, initial: float = 0.0) -> np.ndarray:
     """y[n] = b0·x[n] + b1·x[n−1] + pole·y[n−1] along the first axis, y[0] = b0·x[0] + ``initial``.
 
     The filter ``lfilter([b0, b1], [1, −pole], x, zi=[initial])``: its feed-forward part as
-    whole-array arithmetic, then :func:`one_pole`. With ``b1 = 0`` the bits are lfilter's; with
-    ``b1 ≠ 0`` the sum b0·x[n] + b1·x[n−1] is formed before the pole's term, a rounding apart.
+    whole-array arithmetic, then :func:`one_pole`, within rounding of lfilter (the sum
+    b0·x[n] + b1·x[n−1] is formed before the pole's term; later blocks are chained).
 
     Parameters
     ----------
@@ -87,4 +91,4 @@ def first_order_filter(x: np.ndarray, b0: float, b1: float, pole: float, initial
         drive[1:] += b1 * x[:-1]
     if initial != 0.0 and x.shape[0]:
         drive[0] += initial
-    return one_pole(drive, pole, overwrite=True)
+    return one_pole(drive, pole)

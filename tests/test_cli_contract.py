@@ -64,11 +64,11 @@ def test_the_executable_ends_without_teardown_but_with_status_output_and_atexit(
 def test_one_command_is_built_with_the_same_help_as_in_the_whole_app(argv, capsys):
     """``twin CMD`` builds only CMD (the others' parameters are not read from their signatures);
     its help is the one the whole app prints, and ``twin --help`` still lists every command."""
-    from twin.cli import _app_for
+    from twin.cli import app_for
     from twin.cli.common import app
 
     name = next(a for a in argv if not a.startswith("-"))
-    slim = _app_for(argv)
+    slim = app_for(argv)
     assert slim is not app and [c.callback for c in slim.registered_commands] == \
         [c.callback for c in app.registered_commands if c.callback.__name__.replace("_", "-") == name]
     texts = []
@@ -77,6 +77,6 @@ def test_one_command_is_built_with_the_same_help_as_in_the_whole_app(argv, capsy
             chosen(args=argv, prog_name="twin")
         texts.append((exc.value.code, capsys.readouterr().out))
     assert texts[0] == texts[1] and texts[0][0] == 0 and f"Usage: twin {name}" in texts[0][1]
-    assert _app_for(["--help"]) is app and _app_for(["no-such-command"]) is app
+    assert app_for(["--help"]) is app and app_for(["no-such-command"]) is app
     code, err = _run(["no-such-command"], capsys)
     assert code == 2 and "No such command" in err

@@ -289,9 +289,10 @@ def test_offset_only_px4_vs_six_position_table(log, ds, calibration):
 # ------------------------------------------------------------------ the one-axis scenarios are unchanged
 
 # sha256 over the sorted arrays of simulate(paper_iis328dq.yaml at 1 Hz), recorded before device.axes existed
-# (7ab6c0fd…) and again when the thermal modes left lfilter for sim.recursion: the temperatures moved
-# by ≤ 42 ulp, the logged output not at all (tests/test_recursion.py, against lfilter in the same run)
-PAPER_1HZ_SHA256 = "2a66132fb9de1ed2a39f1fd9d00a75920449778d69dd51b1eef64a1dc5192b71"
+# (7ab6c0fd…), again when the thermal modes left lfilter for sim.recursion (2a66132f…: the temperatures
+# moved by ≤ 42 ulp), and again when sim.recursion became the blocked NumPy recursion: the temperatures
+# moved by ≤ 1.5e-12 °C, the logged output not at all (tests/test_recursion.py, against lfilter in the same run)
+PAPER_1HZ_SHA256 = "1b221ec9ba764d676b8506a1cc4d7a0259419573fe5cfb66e65ec501a6d59e83"
 
 
 def test_one_axis_paper_scenario_is_unchanged():

@@ -25,6 +25,43 @@ def run_slices(run_index: np.ndarray) -> list[slice]:
     return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
 
 
+SUMMED_TERMS = 20_000_000  # windows × size up to which each window is summed on its own (≈ 20 ms)
+
+
+def moving_mean(x: np.ndarray, size: int) -> np.ndarray:
+    """Mean of the ``size`` samples centred on each one (``size // 2`` before it), the ends
+    extended with the first and last values: ``scipy.ndimage.uniform_filter1d(x, size,
+    mode="nearest")`` within rounding, without importing scipy at the start of a command.
+
+    Each window is summed on its own while that is at most :data:`SUMMED_TERMS` additions: within
+    ``size`` ulp of the exact mean, and exactly the value of a constant stretch (a dwell at 50 °C
+    stays at 50 °C, in the bin it belongs to). Beyond that (a report's 10-min mean of a long log)
+    the means are differences of a running sum of ``x − x[0]``, O(n) as scipy's own running sum,
+    whose rounding grows along the array in the same way.
+
+    Parameters
+    ----------
+    x : np.ndarray
+        Samples, 1-D [any unit].
+    size : int
+        Window length [samples]; 1 or less returns a copy.
+
+    Returns
+    -------
+    np.ndarray
+        The moving mean, float, the length of ``x`` [unit of x].
+    """
+    x = np.asarray(x, float)
+    if size <= 1 or x.size == 0:
+        return x.copy()
+    left = size // 2
+    padded = np.concatenate([np.full(left, x[0]), x, np.full(size - 1 - left, x[-1])])
+    if x.size * size <= SUMMED_TERMS:
+        return np.lib.stride_tricks.sliding_window_view(padded, size).mean(axis=1)
+    running = np.concatenate([[0.0], np.cumsum(padded - x[0])])
+    return (running[size:] - running[:-size]) / size + x[0]
+
+
 def median_dt(t: np.ndarray) -> float:
     """Median positive time step (1 when there is none).
 
@@ -101,11 +138,7 @@ def temperature_rate_c_per_s(time_s, temperature_c, run_index=None, *, smooth_s:
         elif method == "half_windows":
             out[s] = _half_window_rate(t[s], T[s], max(1, int(round(smooth_s / 2 / step))))
         else:
-            x = T[s]
-            rows = max(1, int(round(smooth_s / step)))
-            if rows > 1:
-                from scipy.ndimage import uniform_filter1d  # here: ``import twin`` stays light
-                x = uniform_filter1d(x, rows, mode="nearest")
+            x = moving_mean(T[s], max(1, int(round(smooth_s / step))))
             # evenly spaced rows: the scalar step, so no time axis is rounded into the result
             out[s] = np.gradient(x, step) if uniform else np.gradient(x, t[s])
     return out

@@ -128,10 +128,23 @@ def console() -> None:
     os._exit(status)
 
 
-def _app_for(argv: list[str]) -> typer.Typer:
-    """The app with only the command ``argv`` names (the whole app when it names none): typer
-    builds every registered command's parameters from its signature on each call, 50-80 ms for all
-    nineteen, of which one command needs its own. Help, usage errors and options are the same."""
+def app_for(argv: list[str]) -> typer.Typer:
+    """The app with only the command ``argv`` names (the whole app when it names none).
+
+    Typer builds every registered command's parameters from its signature on each call, 50-80 ms
+    for all nineteen, of which one command needs its own. Help, usage errors and options are the
+    same.
+
+    Parameters
+    ----------
+    argv : list of str
+        The arguments after ``twin``.
+
+    Returns
+    -------
+    typer.Typer
+        The app to call with ``argv``.
+    """
     from typer.main import get_command_name
 
     name = next((a for a in argv if not a.startswith("-")), None)
@@ -148,7 +161,7 @@ def _main(argv: list[str] | None) -> None:
     if hasattr(signal, "SIGXFSZ"):  # a file-size limit: a write then fails with EFBIG (one line), not a kill
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
-        code = _app_for(sys.argv[1:] if argv is None else argv)(args=argv, standalone_mode=False)
+        code = app_for(sys.argv[1:] if argv is None else argv)(args=argv, standalone_mode=False)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except (typer.Abort, KeyboardInterrupt):

@@ -12,13 +12,13 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import fdtrc  # F survival, as scipy.stats.f.sf computes it, without importing scipy.stats
 
 from twin.estimation.fit import TwinFit
 from twin.estimation.linalg import heldout_errors, novelty, orthonormal_basis
 from twin.estimation.noise import fit_ar, fit_walk_ar
 from twin.estimation.problem import DiagnosisConfig, Problem, cv_folds
 from twin.estimation.search import bounded_minimum
+from twin.estimation.tails import f_survival
 from twin.effects import REGISTRY, Composition, Effect, get_effect
 
 _PROGRESS: list[Callable[[int], object]] = []  # callbacks told of each grid point screened
@@ -277,7 +277,7 @@ def gls_test(J: np.ndarray, X: np.ndarray, y: np.ndarray, runs: np.ndarray, max_
     F = ((rss0 - rss1) / m) / (rss1 / dof)
     cov = rss1 / dof * np.linalg.pinv(Xp.T @ Xp)
     half = 1.96 * np.sqrt(np.clip(np.diag(cov), 0, None))
-    return CandidateTest(float(n * np.log(rss0 / rss1) - m * np.log(n)), float(fdtrc(m, dof, F)),
+    return CandidateTest(float(n * np.log(rss0 / rss1) - m * np.log(n)), float(f_survival(m, dof, F)),
                          1 - rss1 / rss0, coef, half)
 
 

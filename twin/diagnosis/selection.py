@@ -13,12 +13,12 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
-from scipy.special import fdtrc  # F survival, as scipy.stats.f.sf computes it, without importing scipy.stats
 
+from twin.arrays import moving_mean
 from twin.estimation.fit import TwinFit, fit_twin
 from twin.estimation.decimate import block_aligned_factor, decimate
 from twin.estimation.problem import DiagnosisConfig, Problem
+from twin.estimation.tails import f_survival
 from twin.diagnosis.records import Alias, FamilyChoice, FamilyModel, Withheld
 from twin.diagnosis.screen import CandidateResult, is_testable, screen
 from twin.effects import get_effect
@@ -276,8 +276,8 @@ def assess_confidence(problem: Problem, cal: TwinFit, selection: Selection, alia
 
 def _slow_share(problem: Problem, before: np.ndarray, after: np.ndarray) -> float:
     w = max(1, int(round(problem.config.slow_window_s / problem.config.average_s)))
-    s0 = uniform_filter1d(before, w, mode="nearest")
-    s1 = uniform_filter1d(after, w, mode="nearest")
+    s0 = moving_mean(before, w)
+    s1 = moving_mean(after, w)
     v0 = float(np.var(s0))
     return float(1 - np.var(s1) / v0) if v0 > 0 else 0.0
 
@@ -304,4 +304,4 @@ def _run_consistency(problem: Problem, cal: TwinFit, cand: CandidateResult) -> b
     k = len(active) - 1
     dof = max(1, yw.size - sw.shape[1])
     F = ((r0 @ r0 - r1 @ r1) / k) / ((r1 @ r1) / dof)
-    return bool(fdtrc(k, dof, F) > 0.001)
+    return bool(f_survival(k, dof, F) > 0.001)

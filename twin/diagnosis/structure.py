@@ -21,9 +21,8 @@ import numpy as np
 
 from twin.arrays import temperature_rate_c_per_s
 from twin.estimation.fit import TwinFit
-from scipy.special import chdtrc  # χ² survival, as scipy.stats.chi2.sf computes it, without importing scipy.stats
-
 from twin.estimation.problem import Problem
+from twin.estimation.tails import chi2_survival
 from twin.diagnosis.screen import CandidateResult
 from twin.measurement.quality import thermal_directions
 
@@ -138,7 +137,7 @@ def residual_structure(problem: Problem, cal: TwinFit, selected: list[CandidateR
         means = np.bincount(inv, weights=w * r) / sw
         grand = float(np.sum(w * r) / np.sum(w))
         chi2 = float(np.sum(sw * (means - grand) ** 2))
-        p_adj = min(1.0, float(chdtrc(levels.size - 1, chi2)) * len(groups))
+        p_adj = min(1.0, float(chi2_survival(levels.size - 1, chi2)) * len(groups))
         dbic = chi2 - (levels.size - 1) * np.log(r.size)  # group means against white noise at the floor
         if p_adj < cfg.alpha and dbic > cfg.min_delta_bic:
             dev = means - grand

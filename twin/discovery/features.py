@@ -22,7 +22,6 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-from scipy.ndimage import median_filter
 
 from sim.recursion import first_order_filter
 
@@ -215,9 +214,17 @@ def _since_change(b: BlockInputs, tau_s: float) -> np.ndarray:
     return _per_run(b, f)
 
 
+def _running_median(x: np.ndarray, size: int) -> np.ndarray:
+    """scipy.ndimage's running median, ends extended; imported here so that a compare without
+    ``--discover`` starts without scipy."""
+    from scipy.ndimage import median_filter
+
+    return median_filter(x, size=size, mode="nearest")
+
+
 def _oscillation(b: BlockInputs, window_s: float) -> np.ndarray:
     w = max(3, int(round(window_s / b.dt_s)) | 1)
-    return _per_run(b, lambda s: b.temp_c[s] - median_filter(b.temp_c[s], size=w, mode="nearest"))
+    return _per_run(b, lambda s: b.temp_c[s] - _running_median(b.temp_c[s], w))
 
 
 def holds(b: BlockInputs) -> list[slice]:
@@ -236,7 +243,7 @@ def holds(b: BlockInputs) -> list[slice]:
     """
     w = max(3, int(round(HOLD_SMOOTH_S / b.dt_s)) | 1)
     min_ramp = max(1, int(round(RAMP_MIN_S / b.dt_s)))
-    median = np.concatenate([median_filter(b.temp_c[s], size=w, mode="nearest") for s in run_slices(b.run)])
+    median = np.concatenate([_running_median(b.temp_c[s], w) for s in run_slices(b.run)])
     rate = _smoothed_rate_c_per_min(b, median)
     out = []
     for s in run_slices(b.run):

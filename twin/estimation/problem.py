@@ -10,9 +10,8 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 
-from twin.arrays import interleaved_folds, run_slices
+from twin.arrays import interleaved_folds, moving_mean, run_slices
 from twin.estimation.noise import BlockAverager
 from twin.effects import Composition, EffectInputs, get_effect
 from twin.measurement import Measurement
@@ -99,7 +98,7 @@ class Problem:
         w = max(1, int(round(config.smooth_temperature_s * rate)))
         temp = np.empty_like(m.temperature_c)
         for s in run_slices(m.run_index):
-            temp[s] = uniform_filter1d(m.temperature_c[s], w, mode="nearest") if w > 1 else m.temperature_c[s]
+            temp[s] = moving_mean(m.temperature_c[s], w)
         applied = m.applied_g.copy()
         if not m.applied_known:  # orientation unknown: a per-run constant (absorbed by per-run offsets)
             for s in run_slices(m.run_index):

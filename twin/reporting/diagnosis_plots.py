@@ -7,8 +7,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 
+from twin.arrays import moving_mean
 from twin.reporting.evidence_plots import CandidateRankingDisplay, LedgerDisplay
 from twin.reporting.plots import Display, stride
 
@@ -100,7 +100,7 @@ class ResidualDisplay(Display):
         s = stride(self.time_h.size)
         ax.plot(self.time_h[::s], self.residual_mg[::s], ",", color="0.5")
         w = max(1, int(600 * self.rate_hz))
-        ax.plot(self.time_h, uniform_filter1d(self.residual_mg, w, mode="nearest"), color="C3", lw=1.2,
+        ax.plot(self.time_h, moving_mean(self.residual_mg, w), color="C3", lw=1.2,
                 label="10-min mean")
         ax.axhspan(-2 * self.noise_floor_mg, 2 * self.noise_floor_mg, color="C2", alpha=0.12, label="±2σ noise floor")
         ax.set_xlabel("time [h]")
@@ -245,7 +245,7 @@ class DwellSettlingDisplay(Display):
             e = s
             while e < dwell.size and dwell[e]:
                 e += 1
-            curves.append(((m.time_s[s:e] - m.time_s[s]) / 60, uniform_filter1d(r_mg[s:e], w, mode="nearest")))
+            curves.append(((m.time_s[s:e] - m.time_s[s]) / 60, moving_mean(r_mg[s:e], w)))
         return cls(curves, [(m.time_s[s] - m.time_s[0]) / 3600 for s in starts[:8]])
 
     def _draw(self, ax):
