@@ -292,7 +292,7 @@ def test_offset_only_px4_vs_six_position_table(log, ds, calibration):
 # (7ab6c0fd…), again when the thermal modes left lfilter for sim.recursion (2a66132f…: the temperatures
 # moved by ≤ 42 ulp), and again when sim.recursion became the blocked NumPy recursion: the temperatures
 # moved by ≤ 1.5e-12 °C, the logged output not at all (tests/test_recursion.py, against lfilter in the same run)
-PAPER_1HZ_SHA256 = "1b221ec9ba764d676b8506a1cc4d7a0259419573fe5cfb66e65ec501a6d59e83"
+PAPER_1HZ_SHA256 = "ab03d1ac58c7b25ffa7ca70ad04193eb704e8667c6ac3f43ce3b619b6acd8155"
 
 
 def test_one_axis_paper_scenario_is_unchanged():
