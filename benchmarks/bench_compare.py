@@ -10,10 +10,11 @@ written as canonical CSV, as ``twin export`` writes it; ``twin compare`` of it a
 pandas read of the same file, each in its own process under ``/usr/bin/time -v``, alternated
 ``--runs`` times (target: compare within 3× the read; the median of the per-run ratios). Its floor
 is measured beside it: a process that only imports what ``twin compare`` imports and ends as the
-``twin`` executable does (``start_only``), plus the read inside the compare (``stages.read_s``),
+``twin`` executable does (``start_only``, pandas included), plus the read alone inside the compare
+(``stages.read_s``),
 over the same pandas read.
 
-Usage: python benchmarks/bench_compare.py [--json out/bench_compare.json] [--runs 3]
+Usage: python benchmarks/bench_compare.py [--json out/bench_compare.json] [--runs 5]
 """
 
 from __future__ import annotations
@@ -95,7 +96,7 @@ def paper_export(d: Path, runs: int) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--json", default="out/bench_compare.json")
-    ap.add_argument("--runs", type=int, default=3, help="paper export: compare and read alternated; medians (default 3)")
+    ap.add_argument("--runs", type=int, default=5, help="paper export: compare and read alternated; medians (default 5)")
     args = ap.parse_args()
     twin = str(Path(sys.executable).parent / "twin")
     with tempfile.TemporaryDirectory() as d:

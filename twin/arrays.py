@@ -21,7 +21,7 @@ def run_slices(run_index: np.ndarray) -> list[slice]:
     run_index = np.asarray(run_index)
     if run_index.size == 0:
         return []
-    edges = np.r_[0, np.flatnonzero(np.diff(run_index)) + 1, run_index.size]
+    edges = np.concatenate(([0], np.flatnonzero(np.diff(run_index)) + 1, [run_index.size]))
     return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
 
 

@@ -113,7 +113,7 @@ class ARModel:
         Brockwell & Davis, *Time Series: Theory and Methods*, §5.2 (recursive best linear
         predictors); docs/diagnosis.md §1 step 3.
         """
-        b = np.r_[1.0, -self.coefficients]
+        b = np.concatenate(([1.0], -self.coefficients))
         x = np.asarray(x, float)
         out = np.empty_like(x)
         for run in run_slices(run_index):
@@ -121,7 +121,9 @@ class ARModel:
             seg = x[a:z]
             out[a:z] = _fir(b, seg)
             for t, (coef, s2) in enumerate(self.partial[: z - a]):
-                pred = np.tensordot(coef, seg[t - 1 :: -1][: t], axes=(0, 0)) if t else 0.0
+                # tensordot(coef, past, axes=(0, 0)) as tensordot computes it (a (1, t) by (t, m)
+                # product), without its argument handling (≈ 30 µs a call, 2,000 calls a compare)
+                pred = np.dot(coef[None, :], seg[t - 1 :: -1][:t].reshape(t, -1)).reshape(seg.shape[1:]) if t else 0.0
                 out[a + t] = (seg[t] - pred) * np.sqrt(self.sigma2 / s2)
         return out
 
@@ -191,7 +193,7 @@ def fit_ar(x: np.ndarray, run_index: np.ndarray, max_order: int = 20) -> ARModel
         k = (acov[p] - a @ acov[p - 1 : 0 : -1]) / s2 if p > 1 else acov[1] / s2
         if abs(k) >= 1:
             break
-        a = np.r_[a - k * a[::-1], k]
+        a = np.concatenate((a - k * a[::-1], [k]))
         s2 *= 1.0 - k * k
         if s2 <= 0:
             break
