@@ -236,7 +236,7 @@ def main() -> None:
     ap.add_argument("--json", default="out/bench_long.json")
     ap.add_argument("--skip-week", action="store_true", help="skip the 60.5 M-row (7-day) log")
     ap.add_argument("--tmp", default=None, help="folder for the generated logs (default: system temp)")
-    ap.add_argument("--runs", type=int, default=3, help="24-h compare and pandas read, alternated; medians (default 3)")
+    ap.add_argument("--runs", type=int, default=5, help="24-h compare and pandas read, alternated; medians (default 5)")
     args = ap.parse_args()
     sizes = {"0.5M": 500_000, "24h": 8_640_000} | ({} if args.skip_week else {"7d": 60_480_000})
     result: dict = {"rate_hz": 100.0, "generator": "synthetic, hidden_thermal_lag physics (see docstring)"}
