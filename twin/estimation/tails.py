@@ -18,6 +18,16 @@ TINY = 1e-300  # Lentz's guard against a zero denominator
 MAX_TERMS = 100_000  # far beyond need: the fractions converge in O(√(a + b)) terms
 
 
+def _lentz_step(num: float, den: float, c: float, d: float) -> tuple[float, float]:
+    """One more term num / (den + …) of a continued fraction by the modified Lentz method: the
+    new (c, d), each kept away from 0 by :data:`TINY`; the fraction's value is multiplied by d·c
+    (Press et al., *Numerical Recipes*, 3rd ed., §5.2)."""
+    d = num * d + den
+    d = 1.0 / (d if abs(d) > TINY else TINY)
+    c = den + num / c
+    return (c if abs(c) > TINY else TINY), d
+
+
 def _beta_fraction(a: float, b: float, x: float) -> float:
     """The continued fraction of I_x(a, b) (Numerical Recipes §6.4, eq. 6.4.5), by modified Lentz;
     converges fast for x < (a + 1) / (a + b + 2)."""
@@ -27,10 +37,7 @@ def _beta_fraction(a: float, b: float, x: float) -> float:
     for m in range(1, MAX_TERMS):
         for num in (m * (b - m) * x / ((a + 2 * m - 1) * (a + 2 * m)),
                     -(a + m) * (a + b + m) * x / ((a + 2 * m) * (a + 2 * m + 1))):
-            d = 1.0 + num * d
-            d = 1.0 / (d if abs(d) > TINY else TINY)
-            c = 1.0 + num / c
-            c = c if abs(c) > TINY else TINY
+            c, d = _lentz_step(num, 1.0, c, d)
             h *= d * c
         if abs(d * c - 1.0) <= EPS:
             return h
@@ -175,12 +182,8 @@ def chi2_survival(k: float, x: float) -> float:
     c, d = 1.0 / TINY, 1.0 / b
     h = d
     for n in range(1, MAX_TERMS):
-        num = -n * (n - a)
         b += 2.0
-        d = num * d + b
-        d = 1.0 / (d if abs(d) > TINY else TINY)
-        c = b + num / c
-        c = c if abs(c) > TINY else TINY
+        c, d = _lentz_step(-n * (n - a), b, c, d)
         h *= d * c
         if abs(d * c - 1.0) <= EPS:
             return math.exp(log_front) * h
